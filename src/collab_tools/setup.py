@@ -1,0 +1,25 @@
+from setuptools import find_packages, setup
+
+package_name = 'collab_tools'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Hetero-collab maintainers',
+    maintainer_email='maintainers@hetero-collab.example.org',
+    description='Orchestration, bag recording, run reports and a scripted driver.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'bag_recorder = collab_tools.bag_recorder_node:main',
+            'scripted_driver = collab_tools.scripted_driver_node:main',
+        ],
+    },
+)
