@@ -4,7 +4,6 @@ Runs an rclpy node in a private context (so it never clashes with a test's or a
 script's own rclpy use) in the session's domain, spun by a background thread.
 """
 
-import importlib
 import threading
 import time
 from collections.abc import Callable
@@ -16,23 +15,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from ..ros_interfaces import import_interface
+
 POLL_PERIOD_S = 0.05
-
-
-def import_interface(type_name: str):
-    """'pkg/msg/Name' (or 'pkg/srv/Name', 'pkg/Name') -> the generated Python class."""
-    parts = type_name.split('/')
-    if len(parts) == 2:
-        parts = [parts[0], 'msg', parts[1]]
-    if len(parts) != 3 or parts[1] not in ('msg', 'srv', 'action') or not all(parts):
-        raise ValueError(f"interface type '{type_name}': expected 'package/msg/Name'")
-    package, kind, name = parts
-    try:
-        module = importlib.import_module(f'{package}.{kind}')
-        return getattr(module, name)
-    except (ImportError, AttributeError):
-        raise ValueError(f"interface type '{type_name}' is not installed "
-                         '(is its package built and sourced?)') from None
 
 
 class ConditionTimeout(TimeoutError):

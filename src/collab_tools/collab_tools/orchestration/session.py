@@ -181,7 +181,6 @@ class Session:
             if time.monotonic() > deadline:
                 raise ConditionTimeout(f"timed out after {timeout:.1f} s waiting for '{name}' to exit")
             time.sleep(0.05)
-        process.stopped_by = process.stopped_by or None
         return process.popen.returncode
 
     # --- results --------------------------------------------------------------------

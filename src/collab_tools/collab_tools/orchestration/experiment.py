@@ -1,0 +1,196 @@
+"""Experiments described in YAML, run by an orchestration session.
+
+    name: demo_mobile
+    timeout: 120                 # wall-clock seconds for the completion condition
+    record: {bag: demo, topics: []}     # optional; empty topics = everything
+    nodes:
+      - {package: pybullet_bridge, executable: pybullet_bridge, use_sim_time: false,
+         parameters: ['{config}/params/pybullet_bridge.yaml', {scenario: '{config}/scenarios/demo_mobile.yaml'}]}
+    after_start:                 # optional steps once every node is up
+      - {wait_for_message: {topic: /clock, type: rosgraph_msgs/msg/Clock}}
+      - {call: {service: /pybullet_bridge/pause, type: std_srvs/srv/SetBool, request: {data: false}}}
+    until:                       # one of:
+      message: {topic: /scripted_driver/done, type: std_msgs/msg/Bool, latched: true, equals: {data: true}}
+      # exit: node_name
+      # seconds: 10.0
+
+Strings may use {config} (the config/ directory) and {run_dir}.
+"""
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .node_process import NodeSpec
+from .session import NodeExitedError, Session
+
+NODE_FIELDS = {'package', 'executable', 'name', 'namespace', 'parameters', 'remappings',
+               'arguments', 'use_sim_time', 'log_level', 'required'}
+TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start', 'until'}
+
+
+class ExperimentError(ValueError):
+    pass
+
+
+@dataclass
+class ExperimentResult:
+    run_dir: Path
+    exit_code: int
+    condition_met: bool
+    bag: Path | None
+    message: str
+
+
+def _substitute(value: Any, names: dict[str, str]) -> Any:
+    if isinstance(value, str):
+        for key, replacement in names.items():
+            value = value.replace('{' + key + '}', replacement)
+        return value
+    if isinstance(value, list):
+        return [_substitute(v, names) for v in value]
+    if isinstance(value, dict):
+        return {k: _substitute(v, names) for k, v in value.items()}
+    return value
+
+
+def _require_mapping(value, path: str) -> dict:
+    if not isinstance(value, dict):
+        raise ExperimentError(f'{path}: must be a mapping')
+    return value
+
+
+def _check_fields(mapping: dict, allowed: set[str], path: str) -> None:
+    unknown = sorted(set(mapping) - allowed)
+    if unknown:
+        raise ExperimentError(f'{path}.{unknown[0]}: unknown field (allowed: {", ".join(sorted(allowed))})')
+
+
+def parse_node(entry, path: str) -> NodeSpec:
+    entry = _require_mapping(entry, path)
+    _check_fields(entry, NODE_FIELDS, path)
+    for field in ('package', 'executable'):
+        if not isinstance(entry.get(field), str) or not entry[field]:
+            raise ExperimentError(f'{path}.{field}: missing required field')
+    parameters = entry.get('parameters', [])
+    if not isinstance(parameters, list) or not all(isinstance(p, (str, dict)) for p in parameters):
+        raise ExperimentError(f'{path}.parameters: must be a list of files and mappings')
+    return NodeSpec(package=entry['package'], executable=entry['executable'],
+                    name=entry.get('name'), namespace=entry.get('namespace'),
+                    parameters=parameters, remappings=entry.get('remappings', {}),
+                    arguments=entry.get('arguments', []),
+                    use_sim_time=bool(entry.get('use_sim_time', True)),
+                    log_level=entry.get('log_level'), required=bool(entry.get('required', True)))
+
+
+def _matches(msg, expected: dict) -> bool:
+    for field, value in expected.items():
+        current = msg
+        for part in field.split('.'):
+            current = getattr(current, part)
+        if current != value:
+            return False
+    return True
+
+
+def load_experiment(path: Path) -> dict:
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except OSError as error:
+        raise ExperimentError(f'experiment file {path}: cannot read ({error.strerror})') from None
+    except yaml.YAMLError as error:
+        raise ExperimentError(f'experiment file {path}: invalid YAML ({error})') from None
+    data = _require_mapping(data, 'experiment')
+    _check_fields(data, TOP_FIELDS, 'experiment')
+    if not isinstance(data.get('name'), str):
+        raise ExperimentError('experiment.name: missing required field')
+    if not isinstance(data.get('nodes'), list) or not data['nodes']:
+        raise ExperimentError('experiment.nodes: must list at least one node')
+    until = _require_mapping(data.get('until', {}), 'experiment.until')
+    if len(until) != 1 or next(iter(until)) not in ('message', 'exit', 'seconds'):
+        raise ExperimentError('experiment.until: exactly one of message, exit, seconds')
+    return data
+
+
+def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
+                   overrides: dict[str, dict] | None = None, log=print) -> ExperimentResult:
+    """Run the experiment; every node's log and the bag end up in the run dir."""
+    data = load_experiment(path)
+    session = Session(data['name'], run_dir=run_dir, log=log)
+    names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
+    data = _substitute(data, names)
+    specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
+    for spec in specs:
+        # Parameter files are relative to the experiment file unless absolute.
+        spec.parameters = [p if isinstance(p, dict) or Path(p).is_absolute()
+                           else str(Path(path).parent / p) for p in spec.parameters]
+        if overrides and spec.label in overrides:
+            spec.parameters.append(overrides[spec.label])
+    timeout = float(data.get('timeout', 60.0))
+    bag = None
+    condition_met = False
+    message = ''
+    with session:
+        record = data.get('record')
+        if record is not None:
+            record = _require_mapping(record, 'experiment.record')
+            bag = session.run_dir / 'bags' / str(record.get('bag', data['name']))
+            bag.parent.mkdir(parents=True, exist_ok=True)
+            session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder',
+                                   parameters=[{'output': str(bag),
+                                                'topics': record.get('topics') or ['']}]))
+        for spec in specs:
+            session.start(spec)
+        try:
+            for index, step in enumerate(data.get('after_start') or []):
+                _run_step(session, step, f'experiment.after_start[{index}]')
+            condition_met = _wait_until(session, data['until'], timeout)
+            message = 'completion condition met' if condition_met else 'timed out'
+        except NodeExitedError as error:
+            message = str(error)
+        except TimeoutError as error:
+            message = str(error)
+        session.condition_met = condition_met
+        log(f'[experiment] {data["name"]}: {message}')
+    return ExperimentResult(session.run_dir, session.exit_code(), condition_met, bag, message)
+
+
+def _run_step(session: Session, step, path: str) -> None:
+    step = _require_mapping(step, path)
+    if 'wait_for_message' in step:
+        spec = step['wait_for_message']
+        session.wait_for_message(spec['topic'], spec['type'], timeout=float(spec.get('timeout', 30)),
+                                 latched=bool(spec.get('latched', False)))
+    elif 'call' in step:
+        from ..ros_interfaces import import_interface
+        spec = step['call']
+        srv_type = import_interface(spec['type'])
+        request = srv_type.Request(**spec.get('request', {}))
+        session.call_service(spec['service'], spec['type'], request,
+                             timeout=float(spec.get('timeout', 30)))
+    elif 'sleep' in step:
+        time.sleep(float(step['sleep']))
+    else:
+        raise ExperimentError(f'{path}: expected one of wait_for_message, call, sleep')
+
+
+def _wait_until(session: Session, until: dict, timeout: float) -> bool:
+    kind, spec = next(iter(until.items()))
+    if kind == 'seconds':
+        deadline = time.monotonic() + float(spec)
+        while time.monotonic() < deadline:
+            session.check_alive()
+            time.sleep(0.1)
+        return True
+    if kind == 'exit':
+        return session.wait_for_exit(str(spec), timeout) == 0
+    spec = _require_mapping(spec, 'experiment.until.message')
+    expected = spec.get('equals', {})
+    session.wait_for_message(spec['topic'], spec['type'],
+                             predicate=lambda msg: _matches(msg, expected),
+                             timeout=timeout, latched=bool(spec.get('latched', False)))
+    return True
+

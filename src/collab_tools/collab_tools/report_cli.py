@@ -1,0 +1,170 @@
+"""Run report: ``scripts/report <run-dir-or-bag> [--out DIR]``.
+
+For each bag found: print its summary table, write its plots, and write
+``report.json`` and ``report.md`` into the report directory.  Works without
+the ROS environment (messages are decoded from the bags' own definitions).
+
+Default report directory: ``<run-dir>/report/`` for a run directory, or
+``<bag>/../report/<bagname>/`` for a single bag.  With several bags, each
+bag's plots go to a sub-directory named after the bag (relative to the run
+directory), so equal bag names in different sub-directories do not collide.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+from .core.bag_analysis import BagSummary, find_bags, format_summary, summarize_bag
+from .core.report_plots import write_plots
+
+EXIT_OK = 0
+EXIT_NO_BAG = 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='report',
+        description='Summarize the rosbag2 bags of a run (or one bag): tables, plots, report.json, report.md.',
+    )
+    parser.add_argument('path', type=Path, help='a run directory (bags at any depth) or one bag directory')
+    parser.add_argument('--out', type=Path, default=None,
+                        help='report directory (default: <run-dir>/report or <bag>/../report/<bagname>)')
+    return parser
+
+
+def _bag_label(bag: Path, root: Path, single: bool) -> str:
+    if single:
+        return bag.name
+    try:
+        rel = bag.relative_to(root)
+    except ValueError:
+        return bag.name
+    return rel.as_posix() if rel.parts else bag.name
+
+
+def _rel(path: Path, base: Path) -> str:
+    try:
+        return path.resolve().relative_to(base.resolve()).as_posix()
+    except ValueError:
+        return str(path.resolve())
+
+
+def _bag_entry(summary: BagSummary, label: str, plots: list[Path], out_dir: Path) -> dict:
+    return {
+        'name': label,
+        'path': str(summary.path.resolve()),
+        'storage': summary.storage,
+        'duration_s': summary.duration_s,
+        'start_ns': summary.start_ns,
+        'end_ns': summary.end_ns,
+        'message_count': summary.message_count,
+        'topics': [
+            {
+                'topic': t.topic,
+                'type': t.type_name,
+                'count': t.count,
+                'rate_hz': t.rate_hz,
+                'first_ns': t.first_ns,
+                'last_ns': t.last_ns,
+            }
+            for t in summary.topics
+        ],
+        'plots': [_rel(p, out_dir) for p in plots],
+    }
+
+
+def _md_escape(text: str) -> str:
+    return text.replace('|', '\\|')
+
+
+def _markdown(report: dict) -> str:
+    lines = [
+        '# Run report',
+        '',
+        f'Source: `{report["source"]}`  ',
+        f'Generated: {report["generated"]}',
+        '',
+    ]
+    for bag in report['bags']:
+        lines += [
+            f'## {_md_escape(bag["name"])}',
+            '',
+            f'- path: `{bag["path"]}`',
+            f'- storage: {bag["storage"]}',
+            f'- duration: {bag["duration_s"]:.3f} s',
+            f'- messages: {bag["message_count"]}',
+            '',
+            '| topic | type | count | rate [Hz] |',
+            '| --- | --- | ---: | ---: |',
+        ]
+        for t in bag['topics']:
+            lines.append(
+                f'| `{_md_escape(t["topic"])}` | `{_md_escape(t["type"])}` | {t["count"]} | {t["rate_hz"]:.2f} |'
+            )
+        if not bag['topics']:
+            lines.append('| (no topics) | | | |')
+        lines.append('')
+        for plot in bag['plots']:
+            lines += [f'![{Path(plot).stem}]({plot})', '']
+        if bag.get('errors'):
+            lines += ['Errors:', ''] + [f'- {e}' for e in bag['errors']] + ['']
+    return '\n'.join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    source: Path = args.path
+    try:
+        bags = find_bags(source)
+    except FileNotFoundError as exc:
+        print(f'report: {exc}', file=sys.stderr)
+        return EXIT_NO_BAG
+
+    if source.is_file():  # e.g. <bag>/metadata.yaml or <bag>/<bag>_0.mcap
+        source = bags[0]
+    single_bag_given = len(bags) == 1 and bags[0].resolve() == source.resolve()
+    if args.out is not None:
+        out_dir = args.out
+    elif single_bag_given:
+        out_dir = source.resolve().parent / 'report' / bags[0].name
+    else:
+        out_dir = source / 'report'
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    report: dict = {
+        'source': str(source.resolve()),
+        'generated': datetime.now(timezone.utc).isoformat(timespec='seconds'),
+        'bags': [],
+    }
+    status = EXIT_OK
+    single = len(bags) == 1
+    for bag in bags:
+        label = _bag_label(bag, source, single)
+        try:
+            summary = summarize_bag(bag)
+        except Exception as exc:  # noqa: BLE001 - report the other bags anyway
+            print(f'report: cannot read bag {bag}: {type(exc).__name__}: {exc}', file=sys.stderr)
+            report['bags'].append({'name': label, 'path': str(bag.resolve()), 'storage': 'unknown',
+                                   'duration_s': 0.0, 'start_ns': 0, 'end_ns': 0, 'message_count': 0,
+                                   'topics': [], 'plots': [],
+                                   'errors': [f'{type(exc).__name__}: {exc}']})
+            status = 1
+            continue
+        print(format_summary(summary))
+        print()
+        plot_dir = out_dir if single else out_dir / label
+        plots = write_plots(bag, summary, plot_dir)
+        report['bags'].append(_bag_entry(summary, label, plots, out_dir))
+
+    (out_dir / 'report.json').write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
+    (out_dir / 'report.md').write_text(_markdown(report) + '\n', encoding='utf-8')
+    print(f'report: {out_dir.resolve()}')
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())
