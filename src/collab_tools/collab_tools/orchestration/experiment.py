@@ -119,6 +119,7 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                    overrides: dict[str, dict] | None = None, log=print) -> ExperimentResult:
     """Run the experiment; every node's log and the bag end up in the run dir."""
     data = load_experiment(path)
+    log = log or (lambda _text: None)
     session = Session(data['name'], run_dir=run_dir, log=log)
     names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
     data = _substitute(data, names)

@@ -8,7 +8,7 @@ are errors too, so typos never pass silently.
 Schema (defaults shown; fields without a default are required)::
 
     name: demo_mobile                 # required, non-empty string
-    seed: 0                           # optional int or null: seed for any random choice
+    seed: null                        # optional int: seed for any random choice
                                       # made by section parsers (none of the built-in ones are random)
     world:                            # optional section
       frame_id: world                 # frame of every published pose
@@ -54,7 +54,7 @@ Schema (defaults shown; fields without a default are required)::
           size: [0.5, 0.3]            # required, sx sy (m), each > 0
           height: 0.3                 # m, > 0
           yaw: 0.0                    # rad
-          color: [0.4, 0.4, 0.4]      # r g b in [0, 1]
+          color: [0.5, 0.5, 0.5]      # r g b in [0, 1]
       map:                            # optional occupancy image -> static boxes map_<index>
         image: ../maps/demo_map.png   # required, path relative to the scenario file
         resolution: 0.05              # required, m per pixel, > 0
@@ -67,6 +67,10 @@ Any other top-level key must be a section registered with
 :func:`register_section` (later work adds arms, cubes, sensors that way without
 editing this module or the bridge loop). Scene names must be unique across all
 sections; ``walls`` is reserved when the world has walls.
+
+Segmentation labels: 0 is the background (ground), the walls (if any) get 1,
+then entities follow in section registration order (mobile_robots, obstacles,
+later kinds) and in file order within a section.
 """
 from __future__ import annotations
 

@@ -1,0 +1,83 @@
+"""Orchestration library pieces that need no ROS graph: domains, process shutdown, files."""
+
+import signal
+import sys
+import time
+
+import pytest
+
+from collab_tools.orchestration.domain import DomainUnavailableError, acquire_domain
+from collab_tools.orchestration.experiment import ExperimentError, load_experiment
+from collab_tools.orchestration.node_process import NodeProcess, NodeSpec
+
+IGNORES_SIGINT = ('import signal, time\n'
+                  'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
+                  'print("rea" + "dy", flush=True)\n'
+                  'time.sleep(60)\n')
+
+
+@pytest.fixture(autouse=True)
+def private_lock_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv('COLLAB_DOMAIN_LOCK_DIR', str(tmp_path / 'locks'))
+
+
+def test_domain_ids_are_exclusive_until_released():
+    first = acquire_domain(seed=1)
+    second = acquire_domain(seed=1)
+    assert first.domain_id != second.domain_id
+    with pytest.raises(DomainUnavailableError, match='in use'):
+        acquire_domain(first.domain_id)
+    first.release()
+    again = acquire_domain(first.domain_id)
+    assert again.domain_id == first.domain_id
+    again.release()
+    second.release()
+
+
+def test_domain_id_out_of_range_is_refused():
+    with pytest.raises(DomainUnavailableError, match='domain_id'):
+        acquire_domain(0)
+
+
+def start_python(code: str, tmp_path) -> NodeProcess:
+    spec = NodeSpec('none', 'python', name='stubborn')
+    return NodeProcess(spec, [sys.executable, '-c', code], {}, tmp_path / 'stubborn.log')
+
+
+def wait_for_log(process, text, timeout=10.0):
+    # The log's first line echoes the command, so look at the lines after it.
+    deadline = time.monotonic() + timeout
+    while text not in process.log_path.read_text().splitlines()[1:]:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+
+
+def test_stop_escalates_when_sigint_is_ignored(tmp_path):
+    process = start_python(IGNORES_SIGINT, tmp_path)
+    wait_for_log(process, 'ready')
+    code = process.stop(interrupt_timeout=0.5, terminate_timeout=2.0)
+    assert code == -signal.SIGTERM
+    assert process.outcome().startswith('terminated')
+    assert process.ended_badly()
+
+
+def test_stop_of_a_cooperative_process_is_clean(tmp_path):
+    process = start_python('import time\nprint("rea" + "dy", flush=True)\ntime.sleep(60)\n',
+                           tmp_path)
+    wait_for_log(process, 'ready')
+    process.stop(interrupt_timeout=5.0)
+    assert process.outcome() == 'stopped cleanly'
+    assert not process.ended_badly()
+
+
+@pytest.mark.parametrize('text, message', [
+    ('name: x\nnodes: []\nuntil: {seconds: 1}\n', 'experiment.nodes'),
+    ('name: x\nnodes: [{package: a, executable: b}]\n', 'experiment.until'),
+    ('name: x\nnodez: []\n', 'experiment.nodez: unknown field'),
+    ('nodes: [{package: a, executable: b}]\nuntil: {exit: b}\n', 'experiment.name'),
+])
+def test_experiment_file_errors_name_the_field(tmp_path, text, message):
+    path = tmp_path / 'experiment.yaml'
+    path.write_text(text)
+    with pytest.raises(ExperimentError, match=message.replace('[', r'\[')):
+        load_experiment(path)
