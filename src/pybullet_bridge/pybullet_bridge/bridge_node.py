@@ -98,7 +98,8 @@ class PybulletBridge(Node):
                                               clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(
             f"running scenario '{scenario.name}' ({len(self.scene.entities)} entities), "
-            f'physics dt {self.scene.physics_dt:.5f} s, control period {self.control_period} s, '
+            f'physics dt {self.scene.physics_dt:.5f} s, control period '
+            f'{self.steps_per_tick * self.scene.physics_dt:.5f} s ({self.steps_per_tick} steps), '
             f'real-time factor {self.real_time_factor or "as fast as possible"}'
             f'{", paused" if self.paused else ""}')
 
@@ -112,7 +113,8 @@ class PybulletBridge(Node):
 
         declare('scenario', '', 'path to the scenario YAML (see README: scenario files)')
         declare('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible')
-        declare('control_period', 0.01, 'simulated seconds per tick: /clock and command update rate')
+        declare('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '
+                'rounded to a whole number of physics steps')
         declare('ground_truth_rate', 20.0, 'Hz of simulated time for /ground_truth/bodies')
         declare('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)')
         declare('publish_camera', True, 'render and publish the top-view camera')
