@@ -4,9 +4,12 @@
 # `--no-overlay` skips the workspace overlay (used by scripts/setup before building).
 
 _collab_ws=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+# ROS's and colcon's setup files read unset variables; callers may run with `set -u`.
+case $- in *u*) _collab_nounset=1; set +u ;; *) _collab_nounset=0 ;; esac
 
 if [ ! -f "$_collab_ws/.venv/bin/activate" ]; then
   echo "scripts/env.sh: $_collab_ws/.venv does not exist; run scripts/setup first" >&2
+  [ "$_collab_nounset" = 1 ] && set -u
   return 1 2>/dev/null || exit 1
 fi
 
@@ -41,4 +44,5 @@ if [ "${1:-}" != --no-overlay ]; then
   fi
   export COLLAB_WS_ENV="$_collab_ws"
 fi
-unset _collab_ws
+[ "$_collab_nounset" = 1 ] && set -u
+unset _collab_ws _collab_nounset
