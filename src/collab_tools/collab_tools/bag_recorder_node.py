@@ -12,7 +12,6 @@ import sys
 
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -26,32 +25,6 @@ from .ros_interfaces import import_interface
 
 RECORD_DEPTH = 100
 DEFAULT_EXCLUDE = ['/rosout', '/parameter_events']
-# rclpy reports "infinite" durations as the max int64 nanoseconds (or 0 for defaults).
-_INFINITE_NS = (0, 2**63 - 1, 9223372036854775807)
-
-
-class RecorderConfigError(ValueError):
-    pass
-
-
-def _duration_ns(duration: Duration) -> int:
-    nanoseconds = duration.nanoseconds
-    return 0 if nanoseconds in _INFINITE_NS or nanoseconds < 0 else nanoseconds
-
-
-def qos_spec_from_profile(profile: QoSProfile) -> QosSpec:
-    def policy(value) -> str:
-        return value.name.lower()
-
-    return QosSpec(history=policy(profile.history), depth=int(profile.depth),
-                   reliability=policy(profile.reliability), durability=policy(profile.durability),
-                   deadline_ns=_duration_ns(profile.deadline),
-                   lifespan_ns=_duration_ns(profile.lifespan),
-                   liveliness=policy(profile.liveliness),
-                   liveliness_lease_duration_ns=_duration_ns(profile.liveliness_lease_duration),
-                   avoid_ros_namespace_conventions=bool(profile.avoid_ros_namespace_conventions))
-
-
 def subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
     """The strongest QoS every publisher is compatible with."""
     reliable = all(p.reliability == ReliabilityPolicy.RELIABLE for p in offered)
@@ -122,7 +95,7 @@ class BagRecorder(Node):
             if type_name not in self.type_names:
                 self.writer.typestore = build_typestore(self.type_names | {type_name})
                 self.type_names.add(type_name)
-            self.writer.add_topic(topic, type_name, [qos_spec_from_profile(q) for q in offered])
+            self.writer.add_topic(topic, type_name, [QosSpec.from_profile(q) for q in offered])
         except (ValueError, TypesysError) as error:
             self.get_logger().error(f'{topic}: cannot record, not recording it ({error})')
             self.subscriptions_by_topic[topic] = None  # do not retry every period
