@@ -1,0 +1,1 @@
+"""Role engine of the role-based collaboration subsystem (Akbari et al., RBC + GP inference)."""

@@ -1,0 +1,193 @@
+"""The environment ``e`` and its per-robot-type views ``Env_tau`` (Algorithm 2, lines 2-4).
+
+An :class:`Environment` is a y-up occupancy grid (see :mod:`.grid`) read from a map file,
+an occupancy image or the top-view camera (:mod:`.top_view`). :meth:`Environment.for_robot`
+builds the view of one robot type: obstacles inflated by the robot radius, the cells its
+centre may visit, and the configuration-space SDF (Appendix A step 1, Sec. IV-B).
+
+Map file (YAML; the same fields as the bridge scenario's ``obstacles.map``, so one PNG
+serves both the simulation and the planner)::
+
+    image: env_1.png            # required, path relative to the YAML file; white free, black occupied
+    resolution: 0.025           # required, m per pixel, > 0
+    origin: [-2.5, -2.5]        # required, world x y of the image's bottom-left corner
+    occupied_below: 128         # grey value (0..255) below which a pixel is occupied, [1, 256]
+    border_is_obstacle: true    # the area beyond the image is a wall (robots stay on the map)
+    name: env_1                 # optional, default: the YAML file's stem
+    description: ''             # optional free text
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+from scipy import ndimage
+
+from pybullet_bridge.core.fields import Fields, fail
+
+from .errors import RoleEngineError
+from .grid import GridFrame, image_rows_to_grid
+from .sdf import SignedDistanceField
+
+MAP_FILE_FIELDS = ('image', 'resolution', 'origin', 'occupied_below', 'border_is_obstacle',
+                   'name', 'description')
+#: 8-connectivity: a robot centre moves between diagonal neighbours too.
+EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
+
+
+class Environment:
+    """Static obstacles of the arena on a grid (``occupied[iy, ix]``, True = obstacle)."""
+
+    def __init__(self, occupied: np.ndarray, resolution: float, origin: tuple[float, float], *,
+                 border_is_obstacle: bool = True, name: str = 'environment'):
+        grid = np.asarray(occupied)
+        if grid.ndim != 2 or grid.size == 0:
+            raise RoleEngineError(f'{name}.occupied: must be a non-empty 2-D array (got shape {grid.shape})')
+        if grid.dtype != bool:
+            raise RoleEngineError(f'{name}.occupied: must be a boolean array (got dtype {grid.dtype})')
+        self.name = name
+        self.occupied = grid.copy()
+        self.occupied.setflags(write=False)
+        self.frame = GridFrame(float(resolution), tuple(origin), grid.shape)
+        self.border_is_obstacle = bool(border_is_obstacle)
+        # Workspace SDF: distance from each point to the nearest (uninflated) obstacle surface.
+        self.sdf = SignedDistanceField.from_occupancy(grid, self.frame.resolution, self.frame.origin,
+                                                      border_is_obstacle=self.border_is_obstacle)
+
+    @property
+    def resolution(self) -> float:
+        return self.frame.resolution
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        return self.frame.origin
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.frame.shape
+
+    @classmethod
+    def from_image(cls, grey: np.ndarray, resolution: float, origin: tuple[float, float], *,
+                   occupied_below: int = 128, border_is_obstacle: bool = True,
+                   name: str = 'environment') -> Environment:
+        """Environment of a greyscale occupancy image (row 0 = top = largest y)."""
+        grey = np.asarray(grey)
+        if grey.ndim != 2 or grey.size == 0:
+            raise RoleEngineError(f'{name}.image: must be a non-empty greyscale image (got shape {grey.shape})')
+        return cls(image_rows_to_grid(grey < occupied_below), resolution, origin,
+                   border_is_obstacle=border_is_obstacle, name=name)
+
+    def for_robot(self, robot_type: RobotType) -> RobotEnvironment:
+        """The view of this environment for one robot type (``Env_tau``)."""
+        return RobotEnvironment(self, robot_type)
+
+    def image(self) -> np.ndarray:
+        """The occupancy as a uint8 image (row 0 at the top): 0 occupied, 255 free."""
+        return np.where(np.flipud(self.occupied), 0, 255).astype(np.uint8)
+
+
+@dataclass(frozen=True)
+class RobotType:
+    """What the environment view and the controller need to know about one kind of robot.
+
+    ``inflation_margin`` widens the inflation beyond the radius (a safety distance for
+    tracking errors); velocities (m/s, rad/s) are the platform limits, None = unlimited.
+    """
+
+    name: str
+    radius: float
+    inflation_margin: float = 0.0
+    max_linear_velocity: float | None = None
+    max_angular_velocity: float | None = None
+
+    def __post_init__(self) -> None:
+        for key in ('radius', 'inflation_margin'):
+            value = getattr(self, key)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise RoleEngineError(f'robot_type {self.name!r}.{key}: must be a finite number >= 0 (got {value!r})')
+        for key in ('max_linear_velocity', 'max_angular_velocity'):
+            value = getattr(self, key)
+            if value is not None and (not isinstance(value, (int, float)) or not math.isfinite(value)
+                                      or value <= 0):
+                raise RoleEngineError(f'robot_type {self.name!r}.{key}: must be a finite number > 0 or None '
+                                      f'(got {value!r})')
+
+    @property
+    def inflation(self) -> float:
+        return self.radius + self.inflation_margin
+
+
+@dataclass
+class RobotEnvironment:
+    """``Env_tau`` and ``Sdf_tau``: the environment as seen by the centre of one robot type.
+
+    ``inflated`` marks every cell whose centre is closer than the robot's inflation
+    radius to an obstacle surface; ``visitable`` is its complement (Fig. 16B). ``sdf`` is
+    the signed distance to the inflated obstacles, i.e. the clearance of the robot's
+    body (positive = the whole disc is free), which the GP obstacle factor uses directly.
+    ``components`` labels the 8-connected visitable regions (0 = not visitable).
+    """
+
+    environment: Environment
+    robot_type: RobotType
+    inflated: np.ndarray = field(init=False)
+    visitable: np.ndarray = field(init=False)
+    sdf: SignedDistanceField = field(init=False)
+    components: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        env = self.environment
+        self.inflated = env.sdf.data < self.robot_type.inflation
+        self.visitable = ~self.inflated
+        self.sdf = SignedDistanceField.from_occupancy(self.inflated, env.resolution, env.origin,
+                                                      border_is_obstacle=env.border_is_obstacle)
+        self.components, _ = ndimage.label(self.visitable, structure=EIGHT_CONNECTED)
+        for array in (self.inflated, self.visitable, self.components):
+            array.setflags(write=False)
+
+    @property
+    def frame(self) -> GridFrame:
+        return self.environment.frame
+
+    def cell_of(self, point: tuple[float, float]) -> tuple[int, int]:
+        """(iy, ix) of the cell containing a world point (may be off the grid)."""
+        iy, ix = self.frame.world_to_cell(np.asarray(point, dtype=float))[0]
+        return int(iy), int(ix)
+
+    def is_visitable(self, point: tuple[float, float]) -> bool:
+        """Whether the robot's centre may stand at this world point."""
+        cell = np.array([self.cell_of(point)])
+        return bool(self.frame.contains_cells(cell)[0] and self.visitable[tuple(cell[0])])
+
+
+def load_map_file(path: str | Path) -> Environment:
+    """Read a map YAML (format in the module docstring) and its occupancy image."""
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise fail(where, 'map file does not exist')
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise fail(where, f'not valid YAML ({error})') from None
+    fields = Fields(data, where, allowed=MAP_FILE_FIELDS)
+    image_path = path.parent / fields.string('image')
+    if not image_path.is_file():
+        raise fail(fields.path_of('image'), f"image file '{image_path}' does not exist")
+    grey = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
+    if grey is None:
+        raise fail(fields.path_of('image'), f"cannot read '{image_path}' as an image")
+    resolution = fields.number('resolution', gt=0.0)
+    origin = fields.vector('origin', 2)
+    threshold = fields.integer('occupied_below', 128, ge=1, le=256)
+    border = fields.raw('border_is_obstacle', True)
+    if not isinstance(border, bool):
+        raise fail(fields.path_of('border_is_obstacle'), f'must be true or false (got {border!r})')
+    name = fields.string('name', path.stem)
+    fields.raw('description', '')
+    return Environment.from_image(grey, resolution, origin, occupied_below=threshold,
+                                  border_is_obstacle=border, name=name)

@@ -1,0 +1,16 @@
+"""Make ``role_engine`` importable from the source tree when the workspace is not built or sourced.
+
+The role engine core reads its YAML files with the bridge's field validators
+(``pybullet_bridge.core.fields``), so the bridge's source tree is added the same way.
+"""
+import importlib.util
+import sys
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[3] / 'src'
+PACKAGE_ROOT = SRC / 'role_engine'
+
+if importlib.util.find_spec('role_engine') is None:
+    sys.path.insert(0, str(PACKAGE_ROOT))
+if importlib.util.find_spec('pybullet_bridge') is None:
+    sys.path.insert(0, str(SRC / 'pybullet_bridge'))

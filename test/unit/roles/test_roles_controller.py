@@ -1,0 +1,111 @@
+"""Trajectory following for differential-drive robots with per-type limits."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pybullet_bridge.core import Scene, parse_scenario
+from pybullet_bridge.core.scenario import BUILTIN_ROBOT_TYPES
+from role_engine.core.astar import EMapPlanner
+from role_engine.core.controller import TrackingGains, TrajectoryFollower
+from role_engine.core.emap import build_emap
+from role_engine.core.environment import RobotType, load_map_file
+from role_engine.core.errors import RoleEngineError
+from role_engine.core.initial_paths import emap_trajectory, polyline_trajectory
+
+from roles_map_helpers import MAPS_DIR
+
+
+def robot_type(name: str) -> RobotType:
+    spec = BUILTIN_ROBOT_TYPES[name]
+    return RobotType(name, spec['radius'], max_linear_velocity=spec['max_linear_velocity'],
+                     max_angular_velocity=spec['max_angular_velocity'])
+
+
+def simulate(follower: TrajectoryFollower, pose, duration: float, dt: float = 0.02):
+    """Kinematic unicycle driven by the follower; returns poses, times and commands."""
+    x, y, yaw = pose
+    poses, times, commands = [], [], []
+    for step in range(int(duration / dt)):
+        t = step * dt
+        v, w = follower.command(t, (x, y, yaw))
+        commands.append((v, w))
+        x, y, yaw = x + v * math.cos(yaw) * dt, y + v * math.sin(yaw) * dt, yaw + w * dt
+        poses.append((x, y, yaw))
+        times.append(t + dt)
+    return np.array(poses), np.array(times), np.array(commands)
+
+
+@pytest.mark.parametrize('name', ['turtlebot3_burger', 'pioneer_3dx'])
+def test_follows_an_emap_role_within_the_type_limits(name):
+    kind = robot_type(name)
+    env = load_map_file(MAPS_DIR / 'env_1.yaml')
+    planner = EMapPlanner(build_emap(env.for_robot(kind)))
+    start, goal = (-2.2, -2.2), (2.2, 2.2)
+    path = planner.plan(start, goal)
+    total_time = path.length / (0.7 * kind.max_linear_velocity)
+    states, _ = emap_trajectory(planner, start, goal, total_time, 60)
+    follower = TrajectoryFollower(states, total_time, kind)
+    heading = math.atan2(states[1, 1] - start[1], states[1, 0] - start[0])
+    poses, times, commands = simulate(follower, (start[0], start[1], heading + 0.5), total_time + 5.0)
+    assert np.abs(commands[:, 0]).max() <= kind.max_linear_velocity + 1e-12
+    assert np.abs(commands[:, 1]).max() <= kind.max_angular_velocity + 1e-12
+    errors = [math.dist(p[:2], follower.reference(t)[0]) for p, t in zip(poses, times)]
+    settled = times > 3.0
+    assert max(np.array(errors)[settled]) < 0.1
+    assert math.dist(poses[-1, :2], goal) < 0.03 and follower.finished(times[-1], poses[-1])
+    # The robot's centre stays clear of the obstacles inflated by its radius.
+    assert env.for_robot(kind).sdf.distance(poses[:, :2]).min() > -0.03
+
+
+def test_turns_around_when_the_role_points_behind_it():
+    kind = robot_type('pioneer_3dx')
+    states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 5.0, 20)
+    follower = TrajectoryFollower(states, 5.0, kind)
+    poses, times, _ = simulate(follower, (0.0, 0.0, math.pi), 9.0)
+    assert math.dist(poses[-1, :2], (2.0, 0.0)) < 0.03
+
+
+def test_at_rest_it_approaches_the_end_point_and_stops():
+    kind = robot_type('turtlebot3_burger')
+    states = polyline_trajectory(np.array([[1.0, 1.0], [1.0, 1.0]]), 2.0, 4)
+    follower = TrajectoryFollower(states, 2.0, kind)
+    assert follower.command(0.0, (1.0, 1.01, 0.3)) == (0.0, 0.0)
+    v, w = follower.command(0.0, (0.0, 1.0, math.pi / 2))
+    assert w < 0 and v >= 0            # turn right toward +x first
+    poses, _, _ = simulate(follower, (0.0, 1.0, math.pi / 2), 15.0)
+    assert math.dist(poses[-1, :2], (1.0, 1.0)) < 0.03
+
+
+def test_follows_a_role_in_the_bridge_simulation():
+    kind = robot_type('turtlebot3_burger')
+    # 1.86 m in 13 s: 0.14 m/s, two thirds of the Burger's top speed, with a 54 deg corner.
+    states = polyline_trajectory(np.array([[-1.0, -1.0], [0.0, -1.0], [0.5, -0.3]]), 13.0, 40)
+    follower = TrajectoryFollower(states, 13.0, kind)
+    data = {'name': 'follow', 'world': {'bounds': [-2.0, -2.0, 2.0, 2.0]},
+            'camera': {'width': 16, 'height': 16},
+            'mobile_robots': [{'name': 'tb', 'type': 'turtlebot3_burger', 'pose': [-1.0, -1.0, 0.0],
+                               'color': [0.1, 0.2, 0.9]}]}
+    with Scene(parse_scenario(data, Path('.'))) as scene:
+        robot = scene.entity('tb')
+        errors = []
+        while scene.sim_time < 15.0:
+            pose = robot.pose2d(scene.client)
+            errors.append(math.dist(pose[:2], follower.reference(scene.sim_time)[0]))
+            robot.set_command(*follower.command(scene.sim_time, pose), scene.sim_time)
+            scene.step(12)                              # 20 Hz control
+        final = robot.pose2d(scene.client)
+    assert max(errors) < 0.06
+    assert math.dist(final[:2], (0.5, -0.3)) < 0.03
+
+
+def test_bad_arguments():
+    states = polyline_trajectory(np.array([[0.0, 0.0], [1.0, 0.0]]), 1.0, 2)
+    kind = robot_type('pioneer_3dx')
+    with pytest.raises(RoleEngineError, match='total_time'):
+        TrajectoryFollower(states, -1.0, kind)
+    with pytest.raises(RoleEngineError, match='gains.k_y'):
+        TrackingGains(k_y=0.0)
+    with pytest.raises(RoleEngineError, match='finite'):
+        TrajectoryFollower(states, 1.0, kind).command(0.0, (math.nan, 0.0, 0.0))
