@@ -1,0 +1,1 @@
+"""Executable coalitions (IQ-ASyMTRe): the pure-Python core lives in :mod:`coalition_agents.core`."""

@@ -1,0 +1,128 @@
+"""Pure-Python core of the executable-coalition subsystem (IQ-ASyMTRe), no ROS imports.
+
+Paper: Y. Zhang and L. E. Parker, "IQ-ASyMTRe: Forming Executable Coalitions for Tightly
+Coupled Multirobot Tasks", IEEE T-RO 2013 (``shared/papers/iq_asymtre_coalitions.txt``).
+
+Concepts
+--------
+Robots are built from schemas: environmental sensors with their perceptual schemas (ES-EPS),
+perceptual schemas that convert information (reduction PSs, RPS), motor schemas (MS) that a
+task activates and communication schemas (CS) that move information between robots. Schemas
+are connected by *information instances* such as ``F_R(X, local)`` -- an information type
+(label + number of referents) whose referents are entities (``local`` = the reasoning robot,
+objects such as ``goal``) or variables instantiated later from the information actually
+retrieved. For a task's MS a robot builds a *solution space* (an and-or tree of every way to
+obtain the MS's inputs), takes its *potential solutions* in non-descending cost, and
+instantiates them with what its sensors retrieve now and what other robots offer in answer
+to its requests: a potential solution that can be instantiated consistently (the same
+variable, the same entity) is an *executable* coalition; helpers reason the same way,
+recursively, and the cheapest coalition (including the helpers' coalitions) is chosen.
+
+Where the paper is implemented
+------------------------------
+===========================================  ==================================================
+Paper                                        Module (main names)
+===========================================  ==================================================
+Def. 4.1 information type                    information (InformationType, InformationTypes)
+Def. 4.2 information instance, referents     information (InformationInstance, Entity, Variable,
+                                             LOCAL, parse_instance)
+Def. 4.3 generality partial order            information (is_more_general, has_same_generality,
+                                             compare_generality)
+Def. 4.4/4.5, Lemma 4.1 conversions, IQ form  information (split_conversion), schemas (Conversion)
+Table I RPSs                                 config/coalitions/schemas.yaml, schemas
+                                             (load_library)
+ES, EPS, PS, RPS, MS, CS; costs (Sec. V-A)   schemas (SchemaKind, SensorSchema, Conversion, Costs,
+                                             load_costs); config/coalitions/costs.yaml
+A robot's capabilities                       capabilities (RobotCapabilities,
+                                             load_capability_file)
+Tasks; Table II; Fig. 4/10; Fig. 8           tasks (Task, load_tasks); config/coalitions/tasks.yaml
+Sec. IV-C solution space, and-or tree, tOR   solution_space (RequirementNode = tOR, SchemaNode)
+Referent instantiation constraint (fn. 6)    schemas (Conversion.inputs_for), information
+                                             (match_template, bind_to_ground), coalition
+                                             (RobotReasoner.local_coalition_solutions)
+Generality Imposition, Lemma 4.2             solution_space (generality_imposition_allows,
+                                             Constraints.generality_reading)
+Localness in Reasoning                       solution_space (localness_allows)
+External Communication                       solution_space (external_communication_allows)
+Algorithm 1                                  solution_space (SolutionSpaceGenerator.expand)
+Potential solutions in non-descending cost   solution_space (SolutionSpace.iter_potential_solutions)
+Removal of dominated solutions (Sec. V-A-1)  solution_space (information_key)
+Table III                                    SolutionSpaceGenerator.motor_schema_space('navigate',
+                                             [F_G(local)]) for capabilities/table3_robot.yaml
+Def. 4.6-4.9 (local) coalition (solution)    coalition (LocalCoalitionSolution,
+                                             CoalitionSolution, coalition_members)
+Coalition cost, footnote 14, Table V         coalition (coalition_cost)
+Footnote 9 (answering a request)             requests (request_variants)
+Footnote 10 (self-requests), addressing      requests (addressees)
+Distinct Requests, Lemma 4.3                 requests (RequestLedger), coalition_search
+Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task, plan_reply,
+                                             local_coalition_solutions, offer, coalition)
+Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
+===========================================  ==================================================
+
+Choices where the paper is silent or ambiguous (each is documented where it is made)
+--------------------------------------------------------------------------------------
+* Generality Imposition compares the instances an RPS *converts* (its inputs) by default, as
+  the constraint is worded; the proofs of Lemmas 4.2/4.4 compare what it *produces*.
+  ``Constraints(generality_reading='outputs')`` selects that reading. With the default, the
+  Table III robot has exactly the paper's 11 potential solutions (costs 5, 8, 8.5, 9, 9.5,
+  10.5, 11, 11.5, 11.5, 12, 12); with 'outputs' two more (cost 14) chain relative positions
+  through a fourth entity.
+* Table III prints F_G where F_R is meant in rows 2-4 ("EPS: F_G(X, local)" has two
+  referents; F_G has one): row 2 is EPS F_R(X, local), row 3 CS F_R(local, X), row 4
+  CS F_R(X, local). Rows 7/8 and 10/11 print the same leaves because "RPSs are not shown":
+  they differ in their RPS structure.
+* A schema's label can bind a variable of a required instance only to a variable: bindings
+  flow from a requirement into the schemas below it, never sideways into sibling branches
+  (information.match_template).
+* An instance with no referents (F_M) counts as "all referents non-robot" (LR) and may be
+  requested (EC). A priori information (a task's ``prior``) is given: its zero-cost dummy
+  sensor dominates every alternative, so none are generated.
+* Distinct Requests: a robot sends each request label (equal up to renaming variables) once per
+  search and every later CS for it shares the answers (the paper's proof of Lemma 4.4 a).
+* Requests with variables go to every robot (the requester included); a fully instantiated
+  label naming robots goes to those robots; a robot never relays a label it is not named in.
+* Coalition cost: a CS pair counts once, on the requester's side (footnote 14), and the task's
+  helper MS is charged once per helper robot; this reproduces Table V's 16 and 17.5.
+"""
+from .errors import CoalitionError, ConfigError, InformationError, RequestError, SearchError
+from .information import (
+    LOCAL, Entity, EntityCatalog, InformationInstance, InformationType, InformationTypes, Variable,
+    canonical_instance, compare_generality, has_same_generality, is_more_general, parse_instance,
+)
+from .schemas import (
+    Conversion, Costs, SchemaKind, SchemaLibrary, SensorSchema, costs_from_dict, library_from_dict,
+    load_costs, load_library,
+)
+from .capabilities import (
+    CapabilityFile, RobotCapabilities, capability_file_from_dict, load_capability_file,
+)
+from .tasks import Task, load_tasks, tasks_from_dict
+from .solution_space import (
+    Constraints, PotentialSolution, SolutionSpace, SolutionSpaceCache, SolutionSpaceGenerator,
+    SolutionStep, external_communication_allows, generality_imposition_allows, localness_allows,
+)
+from .requests import (
+    InformationOffer, InformationRequest, RequestLedger, addressees, request_variants, to_absolute,
+    to_local,
+)
+from .coalition import (
+    CoalitionSolution, LocalCoalitionSolution, RobotReasoner, SearchPlan, cheapest_per_members, coalition_cost,
+    coalition_members,
+)
+from .coalition_search import CoalitionResult, CoalitionSearch, SearchStats, SensingModel, StaticSensing
+
+__all__ = [
+    'LOCAL', 'CapabilityFile', 'CoalitionError', 'CoalitionResult', 'CoalitionSearch', 'CoalitionSolution',
+    'ConfigError', 'Constraints', 'Conversion', 'Costs', 'Entity', 'EntityCatalog', 'InformationError',
+    'InformationInstance', 'InformationOffer', 'InformationRequest', 'InformationType', 'InformationTypes',
+    'LocalCoalitionSolution', 'PotentialSolution', 'RequestError', 'RequestLedger', 'RobotCapabilities',
+    'RobotReasoner', 'SchemaKind', 'SchemaLibrary', 'SearchError', 'SearchPlan', 'SearchStats', 'SensingModel',
+    'SensorSchema', 'SolutionSpace', 'SolutionSpaceCache', 'SolutionSpaceGenerator', 'SolutionStep',
+    'StaticSensing', 'Task', 'Variable', 'addressees', 'canonical_instance', 'capability_file_from_dict',
+    'cheapest_per_members', 'coalition_cost', 'coalition_members', 'compare_generality', 'costs_from_dict',
+    'external_communication_allows', 'generality_imposition_allows', 'has_same_generality',
+    'is_more_general', 'library_from_dict', 'load_capability_file', 'load_costs', 'load_library',
+    'load_tasks', 'localness_allows', 'parse_instance', 'request_variants', 'tasks_from_dict',
+    'to_absolute', 'to_local',
+]

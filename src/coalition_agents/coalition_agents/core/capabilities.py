@@ -1,0 +1,126 @@
+"""A robot's capabilities (sensors with their EPSs, own PSs, motor schemas) from YAML.
+
+Capability file format (every field validated, unknown keys are errors)::
+
+    robot_types:                  # required mapping: type name -> capabilities
+      scout:                      # [A-Za-z][A-Za-z0-9_]*
+        description: ''           # optional text
+        sensors:                  # optional list of environmental sensors (ES)
+          - name: fiducial        # required, unique in the type; 'prior' is reserved
+            provides:             # required list: one ES-EPS pair per label this sensor's
+              - F_R(X, local)     #   EPS retrieves (variables are instantiated by the reading)
+        perceptual_schemas:       # optional robot-specific PSs in IQ form (cost `ps`)
+          - name: laser_localization           # unique, must not shadow a library RPS
+            conversion: F_A(local) + F_M => F_G(local)
+            description: ''
+        motor_schemas: [navigate] # optional list of MSs this robot can activate
+    robots:                       # optional mapping: robot name -> type name
+      robot_1: scout              # robot names must not look like variables (not 'R1')
+
+Labels use the library's information types and objects (``config/coalitions/schemas.yaml``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from .errors import ConfigError, InformationError
+from .information import check_entity_name
+from .schemas import (
+    Conversion, SchemaKind, SchemaLibrary, SensorSchema, check_listed_names, conversions_from_list,
+    parse_field_instance,
+)
+from .validation import Section, load_config_file
+
+#: The sensor name of task priors (dummy sensors of a priori information).
+PRIOR_SENSOR = 'prior'
+
+
+@dataclass(frozen=True)
+class RobotCapabilities:
+    """What one robot (type) can sense, convert and actuate."""
+
+    name: str
+    sensors: tuple[SensorSchema, ...] = ()
+    perceptual_schemas: tuple[Conversion, ...] = ()
+    motor_schemas: frozenset[str] = frozenset()
+    description: str = ''
+
+    @property
+    def reasoning_key(self) -> tuple:
+        """What solution spaces depend on: robots with equal keys share generated spaces."""
+        return (self.sensors, self.perceptual_schemas)
+
+    @property
+    def sensor_names(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(s.sensor for s in self.sensors))
+
+    def with_sensors(self, extra: tuple[SensorSchema, ...]) -> 'RobotCapabilities':
+        return RobotCapabilities(self.name, self.sensors + extra, self.perceptual_schemas,
+                                 self.motor_schemas, self.description)
+
+
+@dataclass(frozen=True)
+class CapabilityFile:
+    """Robot types of a capability file, and the robots it assigns to them."""
+
+    types: Mapping[str, RobotCapabilities]
+    robots: Mapping[str, RobotCapabilities]
+
+
+def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> RobotCapabilities:
+    section = Section(data, path, ('description', 'sensors', 'perceptual_schemas', 'motor_schemas'))
+    sensors: list[SensorSchema] = []
+    sensor_names: set[str] = set()
+    for sensor_path, item in section.items('sensors', []):
+        entry = Section(item, sensor_path, ('name', 'provides'))
+        sensor = entry.name('name')
+        if sensor == PRIOR_SENSOR:
+            raise ConfigError(f"{entry.at('name')}: '{PRIOR_SENSOR}' is reserved for a task's a priori information")
+        if sensor in sensor_names:
+            raise ConfigError(f"{entry.at('name')}: sensor '{sensor}' is listed twice")
+        sensor_names.add(sensor)
+        labels = entry.items('provides')
+        if not labels:
+            raise ConfigError(f"{entry.at('provides')}: a sensor must provide at least one label")
+        outputs = []
+        for label_path, label in labels:
+            output = parse_field_instance(library, label, label_path)
+            if output in outputs:
+                raise ConfigError(f'{label_path}: {output} is listed twice')
+            outputs.append(output)
+            sensors.append(SensorSchema(sensor, output))
+    library_names = {c.name for c in library.reductions}
+    own = conversions_from_list(section.items('perceptual_schemas', []), library.types, library.catalog,
+                                SchemaKind.PS, taken=set())
+    for index, conversion in enumerate(own):
+        if conversion.name in library_names:
+            raise ConfigError(f"{section.at('perceptual_schemas')}[{index}].name: '{conversion.name}' "
+                              f"shadows a library RPS of the same name")
+    motor = check_listed_names(section.items('motor_schemas', []))
+    return RobotCapabilities(name, tuple(sensors), own, frozenset(motor), section.text('description', ''))
+
+
+def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> CapabilityFile:
+    section = Section(data, path, ('robot_types', 'robots'))
+    types = {name: capabilities_from_dict(value, library, name, entry_path)
+             for entry_path, name, value in section.entries('robot_types')}
+    if not types:
+        raise ConfigError(f"{section.at('robot_types')}: define at least one robot type")
+    robots: dict[str, RobotCapabilities] = {}
+    for entry_path, robot, type_name in section.entries('robots', []):
+        try:
+            check_entity_name(robot)
+        except InformationError as exc:
+            raise ConfigError(f'{entry_path}: {exc}') from None
+        if type_name not in types:
+            raise ConfigError(f"{entry_path}: unknown robot type {type_name!r} "
+                              f"(defined: {', '.join(sorted(types))})")
+        robots[robot] = types[type_name]
+    return CapabilityFile(types, robots)
+
+
+def load_capability_file(path: str | Path, library: SchemaLibrary) -> CapabilityFile:
+    """Read and validate a capability file (errors name the file and the field)."""
+    return load_config_file(path, lambda data: capability_file_from_dict(data, library, ''))

@@ -1,0 +1,493 @@
+"""Local coalition solutions, coalition solutions and their cost; one robot's reasoning steps.
+
+Paper, Sections IV-D and IV-F, Algorithm 2:
+
+* Definition 4.6 -- a *local coalition*: the local robot and the teammates that directly feed
+  it information (:attr:`CoalitionSolution.local_coalition`).
+* Definition 4.7 -- a *local coalition solution* (LCS): a potential solution after fully
+  instantiating all its information instances from the sensed information and the offers
+  received (:class:`LocalCoalitionSolution`, built by
+  :meth:`RobotReasoner.local_coalition_solutions`). Instantiation enforces the referent
+  instantiation constraint: one entity per variable across the whole solution, no instance
+  naming the same entity twice and (our addition, the paper is silent) no schema receiving
+  the same instance on two inputs; a potential solution for which no such instantiation
+  exists is not executable in the current situation.
+* Definition 4.8/4.9 -- a *coalition* includes the robots that support the local robot
+  indirectly; its *coalition solution* is the LCS plus, recursively, the solutions of the
+  required coalitions (each offer carries the helper's LCS) (:class:`CoalitionSolution`).
+* Coalition cost -- "the sum of all these costs" (:func:`coalition_cost`): each LCS's schemas
+  once (a CS pair -- requester's CS and helper's reply -- counts once, footnote 14, so a
+  helper's reply CS is not charged) plus, when the task names one, the helper MS "to maintain
+  the relative position" once per helper robot (footnote 14). With the paper's costs this gives
+  Table V's coalition costs 16 and 17.5 for potential solutions 2 and 3 of Table III.
+
+:class:`RobotReasoner` is what a distributed ``schema_agent`` uses step by step (Algorithm 2):
+the ordered potential solutions of its task, the sensors and requests a potential solution
+activates (Distinct Requests applied), what it can provide for a received request (footnote 9
+variants and their reply spaces) and the feasible LCSs given what it sensed and was offered.
+:mod:`.coalition_search` wires these steps together for a whole team in one process.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Iterator, Mapping, Sequence
+
+from .capabilities import RobotCapabilities
+from .errors import CoalitionError, InformationError, RequestError
+from .information import Entity, InformationInstance, Variable, bind_to_ground, check_entity_name
+from .requests import (
+    InformationOffer, InformationRequest, RequestLedger, addressees, answers_request, request_label,
+    request_variants, to_absolute,
+)
+from .schemas import Costs, SchemaKind, SchemaLibrary
+from .solution_space import (
+    COST_DIGITS, Constraints, PotentialSolution, SolutionSpace, SolutionSpaceCache, SolutionStep,
+)
+from .tasks import Task
+
+
+@dataclass(frozen=True, eq=False)
+class LocalCoalitionSolution:
+    """Definition 4.7: robot ``robot``'s potential solution, fully instantiated.
+
+    ``sources`` pairs each leaf of the potential solution (in order) with the instance that
+    feeds it and, for a CS leaf, the offer it came from. ``is_reply`` marks a solution that
+    answers another robot's request (its root CS is not charged, see :func:`coalition_cost`).
+    """
+
+    robot: str
+    potential_solution: PotentialSolution
+    binding: tuple[tuple[Variable, Entity], ...]
+    sources: tuple[tuple[SolutionStep, InformationInstance, InformationOffer | None], ...]
+    is_reply: bool
+    local_cost: float
+
+    def instantiate(self, instance: InformationInstance) -> InformationInstance:
+        """A label of the potential solution with this solution's entities (absolute frame)."""
+        return to_absolute(instance.substitute(dict(self.binding)), self.robot)
+
+    @property
+    def answer(self) -> InformationInstance | None:
+        """For a reply: the instance provided to the requester."""
+        root = self.potential_solution.root
+        return self.instantiate(root.output) if self.is_reply and root.output is not None else None
+
+    @property
+    def offers(self) -> tuple[InformationOffer, ...]:
+        return tuple(offer for _, _, offer in self.sources if offer is not None)
+
+    def step_lines(self) -> list[str]:
+        """This robot's schemas with their instantiated labels, one per line (pre-order)."""
+        lines = []
+        offers = iter(self.offers)
+        for step in self.potential_solution.root.walk():
+            if step.kind is SchemaKind.MS:
+                lines.append(f'MS {step.schema}')
+            elif step.kind in (SchemaKind.RPS, SchemaKind.PS):
+                inputs = ' + '.join(str(self.instantiate(s.output)) for s in step.inputs)  # type: ignore[arg-type]
+                lines.append(f'{step.kind.short} {step.schema}: {inputs} => {self.instantiate(step.output)}')
+            elif step.kind is SchemaKind.CS and step.inputs:
+                lines.append(f'CS reply: {self.instantiate(step.output)}')  # type: ignore[arg-type]
+            elif step.kind is SchemaKind.CS:
+                offer = next(offers)
+                lines.append(f'CS: {offer.instance} from {offer.provider}')
+            else:
+                lines.append(f'{step.kind.short} {step.schema}: {self.instantiate(step.output)}')  # type: ignore[arg-type]
+        return lines
+
+
+class _CompiledSolution:
+    """A potential solution's labels in one robot's absolute frame, for fast instantiation."""
+
+    __slots__ = ('solution', 'leaves', 'instances', 'input_groups')
+
+    def __init__(self, solution: PotentialSolution, robot: str):
+        self.solution = solution
+        #: (leaf, absolute label, request label of a CS leaf or None)
+        self.leaves = tuple((leaf, to_absolute(leaf.output, robot),  # type: ignore[arg-type]
+                             request_label(leaf.output, robot) if leaf.kind is SchemaKind.CS else None)  # type: ignore[arg-type]
+                            for leaf in solution.leaves)
+        instances = {to_absolute(step.output, robot): None for step in solution.root.walk() if step.output is not None}
+        self.instances = tuple(instances)
+        #: the inputs of each schema with several inputs (they must stay distinct instances)
+        self.input_groups = tuple(tuple(to_absolute(child.output, robot) for child in step.inputs)  # type: ignore[arg-type]
+                                  for step in solution.root.walk() if len(step.inputs) > 1)
+
+
+def _summary(lcs: LocalCoalitionSolution) -> tuple[frozenset, frozenset[str], float]:
+    """(every distinct LCS of the coalition solution, their robots, the sum of their local
+    costs), cached per LCS. A coalition solution is a DAG: an offer shared by two branches is
+    one activation and is counted once."""
+    cached = lcs.__dict__.get('_summary')
+    if cached is not None:
+        return cached
+    children = [_summary(offer.solution) for offer in lcs.offers]
+    nodes = frozenset([lcs]).union(*(child[0] for child in children))
+    robots = frozenset([lcs.robot]).union(*(child[1] for child in children))
+    if len(nodes) == 1 + sum(len(child[0]) for child in children):
+        total = lcs.local_cost + sum(child[2] for child in children)  # no sharing
+    else:
+        total = sum(node.local_cost for node in nodes)
+    cached = (nodes, robots, total)
+    object.__setattr__(lcs, '_summary', cached)
+    return cached
+
+
+def coalition_members(root: LocalCoalitionSolution) -> tuple[str, ...]:
+    """Definition 4.8: the root robot first, then every robot supporting it, sorted."""
+    others = sorted(_summary(root)[1] - {root.robot})
+    return (root.robot, *others)
+
+
+def coalition_cost(root: LocalCoalitionSolution, helper_motor_schema_cost: float = 0.0,
+                   *, root_is_helped: bool = True) -> float:
+    """The coalition cost: every distinct LCS's schemas plus a helper MS per helper robot.
+
+    With ``root_is_helped=False`` every member counts as a helper (the cost of an offer as
+    seen by a requester outside the coalition).
+    """
+    _, robots, total = _summary(root)
+    helpers = len(robots - {root.robot}) if root_is_helped else len(robots)
+    return round(total + helper_motor_schema_cost * helpers, COST_DIGITS)
+
+
+@dataclass(frozen=True, eq=False)
+class CoalitionSolution:
+    """Definition 4.9: an LCS with its required coalitions' solutions, and its coalition cost."""
+
+    root: LocalCoalitionSolution
+    cost: float
+    members: tuple[str, ...]
+
+    @property
+    def robot(self) -> str:
+        return self.root.robot
+
+    @property
+    def local_coalition(self) -> tuple[str, ...]:
+        """Definition 4.6: the robot and the teammates that directly feed it information."""
+        direct = sorted({offer.provider for offer in self.root.offers} - {self.root.robot})
+        return (self.root.robot, *direct)
+
+    def describe(self) -> str:
+        """Multi-line text: each robot's instantiated schemas, helpers indented below."""
+        lines = [f'coalition of {", ".join(self.members)}: cost {self.cost:g} '
+                 f'(potential solution {self.root.potential_solution.rank + 1}, '
+                 f'{self.root.potential_solution.cost:g})']
+
+        def add(lcs: LocalCoalitionSolution, depth: int, seen: set[int]) -> None:
+            indent = '  ' * depth
+            header = (f'{lcs.robot} provides {lcs.answer}' if lcs.is_reply else f'{lcs.robot}')
+            lines.append(f'{indent}{header}:')
+            lines.extend(f'{indent}  {line}' for line in lcs.step_lines())
+            if id(lcs) in seen:
+                return
+            seen.add(id(lcs))
+            for offer in lcs.offers:
+                add(offer.solution, depth + 1, seen)
+
+        add(self.root, 1, set())
+        return '\n'.join(lines)
+
+    def to_dict(self) -> dict:
+        def lcs_dict(lcs: LocalCoalitionSolution) -> dict:
+            return {'robot': lcs.robot, 'provides': None if lcs.answer is None else str(lcs.answer),
+                    'cost': lcs.local_cost, 'schemas': lcs.step_lines(),
+                    'helpers': [lcs_dict(offer.solution) for offer in lcs.offers]}
+        return {'cost': self.cost, 'members': list(self.members),
+                'potential_solution': self.root.potential_solution.rank + 1, 'solution': lcs_dict(self.root)}
+
+
+@dataclass(frozen=True)
+class SearchPlan:
+    """What one robot does for a solution space it searches (Algorithm 2): the potential
+    solutions in non-descending cost, the ES-EPS pairs to activate temporarily and the requests
+    to send (Distinct Requests applied). ``variant`` is what it would provide to ``request``
+    (local frame); both are None for the robot's own task."""
+
+    solutions: tuple[PotentialSolution, ...]
+    sensors: tuple[tuple[str, InformationInstance], ...]
+    requests: tuple[InformationRequest, ...]
+    request: InformationRequest | None = None
+    variant: InformationInstance | None = None
+
+
+class RobotReasoner:
+    """One robot's IQ-ASyMTRe reasoning for one task, step by step (Algorithm 2).
+
+    ``cache`` shares generated solution spaces between reasoners of robots with equal
+    capabilities; ``potential_solution_limit`` caps how many potential solutions of a space
+    are checked (the paper bounds the search by time instead).
+    """
+
+    def __init__(self, robot: str, capabilities: RobotCapabilities, library: SchemaLibrary, costs: Costs,
+                 task: Task, *, cache: SolutionSpaceCache | None = None,
+                 constraints: Constraints = Constraints(), potential_solution_limit: int | None = None):
+        self.robot = check_entity_name(robot)
+        self.capabilities = capabilities
+        self.library = library
+        self.costs = costs
+        self.task = task
+        self.cache = cache if cache is not None else SolutionSpaceCache(library, costs, constraints)
+        self.generator = self.cache.generator(capabilities, task.prior_sensors)
+        self.potential_solution_limit = potential_solution_limit
+        self.ledger = RequestLedger(self.robot)
+        self._compiled: dict[int, _CompiledSolution] = {}
+        self._reply_spaces: dict[InformationInstance, SolutionSpace] = {}
+
+    @property
+    def helper_motor_schema_cost(self) -> float:
+        helper = self.task.helper_motor_schema
+        return 0.0 if helper is None else self.costs.motor_schema(helper)
+
+    # Algorithm 2, first lines: the task's space and its ordered potential solutions ---------
+    def task_space(self, focus: Sequence[InformationInstance] | None = None) -> SolutionSpace:
+        if self.task.motor_schema not in self.capabilities.motor_schemas:
+            raise CoalitionError(
+                f"robot {self.robot} cannot activate motor schema '{self.task.motor_schema}' of task "
+                f"{self.task.name} (its motor schemas: {', '.join(sorted(self.capabilities.motor_schemas)) or 'none'})")
+        return self.generator.motor_schema_space(self.task.motor_schema, self.task.requirements(focus))
+
+    def task_solutions(self, focus: Sequence[InformationInstance] | None = None) -> list[PotentialSolution]:
+        return self.task_space(focus).potential_solutions(self.potential_solution_limit)
+
+    def plan_task(self, focus: Sequence[InformationInstance] | None = None) -> SearchPlan:
+        """The robot's own task: what to sense and request to check all its potential solutions."""
+        return self._plan(tuple(self.task_solutions(focus)), (), None, None)
+
+    def plan_reply(self, request: InformationRequest) -> list[SearchPlan]:
+        """What this robot can provide for ``request`` given the requests already in its chain:
+        one plan per variant (footnote 9), empty if the request is not for this robot. Its own
+        requests carry the extended chain; labels it requested before are not sent again."""
+        return [self._plan(tuple(self.reply_solutions(variant)), request.extended_chain, request, variant)
+                for variant in self.variants(request)]
+
+    def _plan(self, solutions: tuple[PotentialSolution, ...], chain: tuple, request: InformationRequest | None,
+              variant: InformationInstance | None) -> SearchPlan:
+        sensors = dict.fromkeys(need for solution in solutions for need in self.sensing_needs(solution))
+        requests = [sent for solution in solutions for sent in self.requests_to_send(solution, chain)]
+        return SearchPlan(solutions, tuple(sensors), tuple(requests), request, variant)
+
+    # Serving requests ------------------------------------------------------------------------
+    def variants(self, request: InformationRequest) -> tuple[InformationInstance, ...]:
+        """What this robot can provide for ``request`` (footnote 9), in its local frame."""
+        if request.label.has_local:
+            raise RequestError(f"request.label: a request names robots, not 'local' (got {request.label})")
+        try:
+            self.library.types.check(request.label)
+        except InformationError as exc:
+            raise RequestError(f'request.label: {exc}') from None
+        return request_variants(request.label, self.robot)
+
+    def reply_space(self, variant: InformationInstance) -> SolutionSpace:
+        space = self._reply_spaces.get(variant)
+        if space is None:
+            space = self.generator.request_space(variant)
+            self._reply_spaces[variant] = space
+        return space
+
+    def reply_solutions(self, variant: InformationInstance) -> list[PotentialSolution]:
+        return self.reply_space(variant).potential_solutions(self.potential_solution_limit)
+
+    # What a potential solution activates -------------------------------------------------------
+    def sensing_needs(self, solution: PotentialSolution) -> list[tuple[str, InformationInstance]]:
+        """(sensor, absolute label) of each ES-EPS leaf, to activate temporarily."""
+        return [(leaf.schema, label) for leaf, label, _ in self.compiled(solution).leaves
+                if leaf.kind is SchemaKind.ES_EPS]
+
+    def request_labels(self, solution: PotentialSolution) -> list[InformationInstance]:
+        """The distinct request labels of the CS leaves (absolute, canonical), in leaf order."""
+        return list(dict.fromkeys(requested for _, _, requested in self.compiled(solution).leaves
+                                  if requested is not None))
+
+    def requests_to_send(self, solution: PotentialSolution,
+                         chain: tuple[tuple[str, InformationInstance], ...] = ()) -> list[InformationRequest]:
+        """The requests this potential solution's CSs send now: Distinct Requests drops every
+        label this robot already requested (its answers are shared)."""
+        return [InformationRequest(self.robot, label, chain) for label in self.request_labels(solution)
+                if self.ledger.admit(label, chain)]
+
+    @staticmethod
+    def addressees(request: InformationRequest, team: Sequence[str]) -> tuple[str, ...]:
+        return addressees(request.label, team)
+
+    # Instantiation: from a potential solution to local coalition solutions -------------------------
+    def compiled(self, solution: PotentialSolution) -> '_CompiledSolution':
+        """The solution's labels in this robot's absolute frame (computed once per solution)."""
+        compiled = self._compiled.get(id(solution))
+        if compiled is None or compiled.solution is not solution:
+            compiled = _CompiledSolution(solution, self.robot)
+            self._compiled[id(solution)] = compiled
+        return compiled
+
+    def local_coalition_solutions(
+            self, solution: PotentialSolution, sensed: Mapping[str, Iterable[InformationInstance]],
+            offers: Mapping[InformationInstance, Iterable[InformationOffer]], *, reply: bool = False,
+            cheapest_offers: bool = False, limit: int | None = None,
+            new_offers: Mapping[InformationInstance, Iterable[InformationOffer]] | None = None,
+            below_cost: float | None = None,
+    ) -> Iterator[LocalCoalitionSolution]:
+        """Every instantiation of ``solution`` by the sensed instances (per sensor, absolute) and
+        the offers received (per request label) that satisfies the referent instantiation
+        constraint. ``cheapest_offers`` keeps only the cheapest offer per instance (a helper
+        needs one way to provide each instance; the local robot may want every coalition).
+
+        With ``new_offers`` (a subset of ``offers``: those received since the last call) only
+        the instantiations that use at least one of them are produced, each once -- the
+        semi-naive way to update a robot's solutions as offers arrive. With ``below_cost``,
+        offers that alone would bring the coalition to that cost or more are not tried (a
+        coalition costs at least this robot's schemas plus any one offer's coalition)."""
+        local_cost = round(solution.cost - (self.costs.cs if reply else 0.0), COST_DIGITS)
+        compiled = self.compiled(solution)
+        slots = []
+        for index, (leaf, label, requested) in enumerate(compiled.leaves):
+            candidates: list[tuple[InformationInstance, InformationOffer | None]]
+            if leaf.kind is SchemaKind.PRIOR:
+                candidates = [(label, None)] if label.is_fully_instantiated else []
+            elif leaf.kind is SchemaKind.ES_EPS:
+                readings = dict.fromkeys(sensed.get(leaf.schema, ()))
+                candidates = [(instance, None) for instance in readings if answers_request(instance, label)]
+            else:
+                # The leaf's label is the request label up to renaming, so every offer received
+                # for the request (checked on receipt) fits the leaf; offers keep arrival order.
+                matching = list(offers.get(requested, ()))
+                if below_cost is not None:
+                    matching = [offer for offer in matching if local_cost + offer.cost < below_cost]
+                if cheapest_offers:
+                    best: dict[InformationInstance, InformationOffer] = {}
+                    for offer in matching:
+                        kept = best.get(offer.instance)
+                        if kept is None or (offer.cost, offer.provider) < (kept.cost, kept.provider):
+                            best[offer.instance] = offer
+                    matching = list(best.values())
+                candidates = [(offer.instance, offer) for offer in matching]
+            if not candidates:
+                return
+            slots.append((index, leaf, label, candidates))
+        if new_offers is not None:
+            fresh = {id(offer) for label_offers in new_offers.values() for offer in label_offers}
+            yield from self._delta_join(solution, slots, fresh, reply, limit)
+            return
+        yield from self._join(solution, slots, reply, limit)
+
+    def _delta_join(self, solution: PotentialSolution, slots: list, fresh: set[int], reply: bool,
+                    limit: int | None) -> Iterator[LocalCoalitionSolution]:
+        """Joins in which slot i takes only new offers, earlier slots only old ones (each
+        combination with at least one new offer appears exactly once)."""
+        produced = 0
+        offer_slots = [k for k, slot in enumerate(slots) if any(o is not None for _, o in slot[3])]
+        for position, k in enumerate(offer_slots):
+            new_here = [c for c in slots[k][3] if id(c[1]) in fresh]
+            if not new_here:
+                continue
+            restricted = list(slots)
+            restricted[k] = (*slots[k][:3], new_here)
+            empty = False
+            for earlier in offer_slots[:position]:
+                old = [c for c in slots[earlier][3] if id(c[1]) not in fresh]
+                if not old:
+                    empty = True
+                    break
+                restricted[earlier] = (*slots[earlier][:3], old)
+            if empty:
+                continue
+            for lcs in self._join(solution, restricted, reply, None):
+                yield lcs
+                produced += 1
+                if limit is not None and produced >= limit:
+                    return
+
+    def _join(self, solution: PotentialSolution, slots: list, reply: bool,
+              limit: int | None) -> Iterator[LocalCoalitionSolution]:
+        compiled = self.compiled(solution)
+        # Hash join: candidates indexed by the entity at each variable position; the leaf with
+        # the fewest candidates consistent with the current binding is extended next.
+        indexes = []
+        for _, _, label, candidates in slots:
+            by_position: dict[int, dict[Entity, list]] = {}
+            for position, referent in enumerate(label.referents):
+                if isinstance(referent, Variable):
+                    table: dict[Entity, list] = {}
+                    for candidate in candidates:
+                        table.setdefault(candidate[0].referents[position], []).append(candidate)
+                    by_position[position] = table
+            indexes.append(by_position)
+        chosen: dict[int, tuple[InformationInstance, InformationOffer | None]] = {}
+        local_cost = round(solution.cost - (self.costs.cs if reply else 0.0), COST_DIGITS)
+
+        def consistent(slot: int, binding: Mapping[Variable, Entity]) -> list:
+            label, candidates = slots[slot][2], slots[slot][3]
+            best = candidates
+            for position, table in indexes[slot].items():
+                entity = binding.get(label.referents[position])  # type: ignore[arg-type]
+                if entity is not None:
+                    narrowed = table.get(entity, [])
+                    if len(narrowed) < len(best):
+                        best = narrowed
+            return best
+
+        def search(remaining: tuple[int, ...], binding: dict[Variable, Entity]) -> Iterator[LocalCoalitionSolution]:
+            if not remaining:
+                # Every instance of the solution must be fully instantiated, entities distinct,
+                # and a schema's inputs distinct pieces of information (a task needing F_B(local)
+                # and F_B(Y) needs a teammate Y, not this robot twice).
+                for instance in compiled.instances:
+                    bound = instance.substitute(binding)
+                    if not bound.is_fully_instantiated or bound.is_degenerate:
+                        return
+                for group in compiled.input_groups:
+                    if len({instance.substitute(binding) for instance in group}) != len(group):
+                        return
+                sources = tuple((leaf, *chosen[index]) for index, leaf, _, _ in slots)
+                binding_items = tuple(sorted(binding.items(), key=lambda kv: kv[0].name))
+                yield LocalCoalitionSolution(self.robot, solution, binding_items, sources, reply, local_cost)
+                return
+            options = [(len(found), slot, found) for slot in remaining for found in (consistent(slot, binding),)]
+            _, slot, found = min(options, key=lambda option: (option[0], option[1]))
+            rest = tuple(other for other in remaining if other != slot)
+            label = slots[slot][2]
+            for instance, offer in found:
+                extended = bind_to_ground(label, instance, binding)
+                if extended is None:
+                    continue
+                chosen[slots[slot][0]] = (instance, offer)
+                yield from search(rest, extended)
+
+        produced = 0
+        for lcs in search(tuple(range(len(slots))), {}):
+            yield lcs
+            produced += 1
+            if limit is not None and produced >= limit:
+                return
+
+    def coalition(self, lcs: LocalCoalitionSolution) -> CoalitionSolution:
+        """The coalition solution rooted at this robot's LCS, with its coalition cost."""
+        return CoalitionSolution(lcs, coalition_cost(lcs, self.helper_motor_schema_cost), coalition_members(lcs))
+
+    def offer(self, request: InformationRequest, lcs: LocalCoalitionSolution) -> InformationOffer:
+        """The offer answering ``request`` with the reply LCS ``lcs``."""
+        answer = lcs.answer
+        if answer is None or not answers_request(answer, request.label):
+            raise RequestError(f'{self.robot}: {answer} does not answer {request.label}')
+        return InformationOffer(self.robot, request.label, answer, lcs,
+                                coalition_cost(lcs, self.helper_motor_schema_cost, root_is_helped=False))
+
+
+def sort_coalitions(solutions: Iterable[CoalitionSolution]) -> list[CoalitionSolution]:
+    """Non-descending coalition cost; ties by potential-solution rank, then members and text."""
+    return sorted(solutions, key=lambda s: (s.cost, s.root.potential_solution.rank, s.members,
+                                            tuple(s.root.step_lines())))
+
+
+def cheapest_per_members(solutions: Iterable[CoalitionSolution]) -> list[CoalitionSolution]:
+    """One solution per distinct set of members (the cheapest): the paper's count of coalitions."""
+    best: dict[frozenset[str], CoalitionSolution] = {}
+    for solution in sort_coalitions(solutions):
+        best.setdefault(frozenset(solution.members), solution)
+    return sort_coalitions(best.values())
+
+
+__all__ = [
+    'CoalitionSolution', 'LocalCoalitionSolution', 'RobotReasoner', 'SearchPlan', 'cheapest_per_members',
+    'coalition_cost', 'coalition_members', 'sort_coalitions',
+]

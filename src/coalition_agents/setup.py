@@ -1,0 +1,23 @@
+from setuptools import find_packages, setup
+
+package_name = 'coalition_agents'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Hetero-collab maintainers',
+    maintainer_email='maintainers@hetero-collab.example.org',
+    description='Executable coalitions (IQ-ASyMTRe): solution spaces and coalition solutions across robots.',
+    license='Apache-2.0',
+    entry_points={
+        # The schema_agent node is added later; the core has no executables.
+        'console_scripts': [],
+    },
+)
