@@ -29,6 +29,7 @@ from .core.errors import ScenarioError
 from .core.scenario import load_scenario
 from .core.scene import Scene
 from .entity_adapters import create_adapters
+from . import arm_adapter  # noqa: F401  (registers the arms' adapter)
 
 MAX_STEPS_PER_REQUEST = 100_000
 # Ticks run at most this far behind wall-clock pacing before the bridge gives up

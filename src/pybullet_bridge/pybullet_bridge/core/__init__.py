@@ -1,7 +1,7 @@
 """Pure-Python simulation core of the pybullet bridge (no ROS imports).
 
 Importing this package registers the built-in scenario sections
-(``mobile_robots``, ``obstacles``).
+(``mobile_robots``, ``obstacles``, ``tables``, ``cubes``, ``arms``).
 """
 from .errors import ScenarioError
 from .scenario import (
@@ -13,11 +13,16 @@ from .camera import TopViewCamera
 from .scene import BodyStateData, CameraFrame, Scene, SceneEntity
 from .mobile_robot import MobileRobot, RobotParams
 from .obstacles import BoxObstacle, WallSet, load_map_boxes, occupancy_to_rectangles
+from .tabletop import Cube, GridSpec, Table
+from .placement import find_free_pixel, find_place_position, region_to_pixels
+from .arm_models import ARM_MODELS, ArmKinematics, ArmModel
+from .arm import Arm, ArmLimits, Outcome, PickPlaceTask
 
 __all__ = [
-    'BodyStateData', 'BoxObstacle', 'CameraConfig', 'CameraFrame', 'DiffDriveLimits', 'MobileRobot',
-    'RobotParams', 'Scenario', 'ScenarioError', 'Scene', 'SceneEntity', 'SectionContext',
-    'TopViewCamera', 'WallConfig', 'WallSet', 'WorldConfig', 'limit_velocity', 'load_map_boxes',
-    'load_scenario', 'occupancy_to_rectangles', 'parse_scenario', 'register_section',
-    'registered_sections', 'unregister_section',
+    'ARM_MODELS', 'Arm', 'ArmKinematics', 'ArmLimits', 'ArmModel', 'BodyStateData', 'BoxObstacle',
+    'CameraConfig', 'CameraFrame', 'Cube', 'DiffDriveLimits', 'GridSpec', 'MobileRobot', 'Outcome',
+    'PickPlaceTask', 'RobotParams', 'Scenario', 'ScenarioError', 'Scene', 'SceneEntity', 'SectionContext',
+    'Table', 'TopViewCamera', 'WallConfig', 'WallSet', 'WorldConfig', 'find_free_pixel',
+    'find_place_position', 'limit_velocity', 'load_map_boxes', 'load_scenario', 'occupancy_to_rectangles',
+    'parse_scenario', 'region_to_pixels', 'register_section', 'registered_sections', 'unregister_section',
 ]

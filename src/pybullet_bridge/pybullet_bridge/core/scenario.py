@@ -62,6 +62,45 @@ Schema (defaults shown; fields without a default are required)::
         occupied_below: 128           # grey value (0..255) below which a pixel is occupied, [1, 256]
         height: 0.3                   # m, > 0
         color: [0.2, 0.2, 0.2]        # r g b in [0, 1]
+    tables:                           # optional list of static tables (core/tabletop.py)
+      - name: table                   # required, unique scene name
+        center: [0.0, 0.0]            # required, x y (m)
+        size: [0.3, 0.3]              # required, sx sy (m), each > 0; the top must lie inside
+                                      # world.bounds and overlap no other table
+        height: 0.4                   # required, z of the top surface (m), (0, 5]
+        color: [0.78, 0.66, 0.5]      # r g b in [0, 1]
+        grid: {rows: 3, cols: 3}      # optional: cells over the whole top, drawn as thin lines the
+                                      # camera sees (visual only; cubes rest on the top itself).
+                                      # rows, cols in [1, 100]; also line_width: 0.004 (m, < half
+                                      # a cell) and color: [0.15, 0.15, 0.15]. Cell (row, col):
+                                      # row 0 has the largest y, col 0 the smallest x.
+    cubes:                            # optional list of dynamic cubes (core/tabletop.py)
+      - name: red_1                   # required, unique scene name
+        position: [-0.125, 0.125]     # required, x y (m); z follows from what is below: the
+                                      # table whose top holds the whole footprint, else the ground
+                                      # (then inside world.bounds). Straddling a table edge or
+                                      # overlapping another cube or an obstacle is an error.
+        size: 0.03                    # edge (m), (0, 0.5]
+        mass: 0.05                    # kg, (0, 100]
+        color: [0.85, 0.12, 0.12]     # required, r g b in [0, 1]
+        yaw: 0.0                      # rad
+    arms:                             # optional list of fixed-base arms (core/arm.py)
+      - name: leader_arm              # required, unique scene name (ROS namespace)
+        model: panda                  # required: panda | kuka_iiwa | xarm6 (pybullet_data URDFs)
+        base: [-0.565, 0.0, 0.0]      # required, x y (m) yaw (rad); the pedestal must lie inside
+                                      # world.bounds and stand in no table or cube
+        base_height: 0.0              # m, [0, 2]: top of the pedestal the arm stands on
+                                      # (0 = on the ground); put it at table height for reach
+        failure_probability: 0.0      # [0, 1]: chance that a task's grasp slips (drawn once per task)
+        seed: null                    # int; default derived from the scenario seed and the arm's
+                                      # index, so runs are reproducible
+        max_joint_velocity: 1.5       # rad/s, (0, 10], also capped by each joint's URDF limit
+        max_tool_speed: 0.4           # m/s of the tool on straight segments, (0, 2]
+        phase_timeout: 2.0            # s of simulated time a motion segment may overrun, (0, 60]
+        placement_clearance: 0.01     # m kept free around a placed cube, [0, 0.2]
+        home: null                    # joint positions (rad), one per arm joint within the URDF
+                                      # limits; default per model, out of the camera's view of
+                                      # a table in front of the arm
 
 Any other top-level key must be a section registered with
 :func:`register_section` (later work adds arms, cubes, sensors that way without
@@ -70,13 +109,16 @@ sections; ``walls`` is reserved when the world has walls.
 
 Segmentation labels: 0 is the background (ground), the walls (if any) get 1,
 then entities follow in section registration order (mobile_robots, obstacles,
-later kinds) and in file order within a section.
+tables, cubes, arms, later kinds) and in file order within a section. A section
+parser sees the entities of the sections parsed before it in
+``SectionContext.earlier`` (cubes check the tables under them).
 """
 from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 import yaml
@@ -121,7 +163,7 @@ DEFAULT_PHYSICS_DT = 1.0 / 240.0  # pybullet's own default step
 DEFAULT_BOUNDS = (-3.0, -3.0, 3.0, 3.0)
 TOP_LEVEL_KEYS = ('name', 'seed', 'world', 'camera', 'robot_types')
 #: Modules whose import registers the built-in sections, in label order.
-BUILTIN_SECTION_MODULES = ('.mobile_robot', '.obstacles')
+BUILTIN_SECTION_MODULES = ('.mobile_robot', '.obstacles', '.tabletop', '.arm')
 #: Name of the wall entity the scene adds when world.walls is set.
 WALLS_ENTITY_NAME = 'walls'
 
@@ -166,6 +208,10 @@ class SectionContext:
     world: WorldConfig
     robot_types: dict[str, dict[str, float]]
     seed: int | None
+    #: Entities of the sections parsed before this one, by section key (read only), so a
+    #: section can check itself against earlier ones (cubes must rest on tables, arms must
+    #: not stand in them).
+    earlier: Mapping[str, list] = field(default_factory=dict)
 
     def resolve(self, relative: str) -> Path:
         """Resolve a path written in the scenario file."""
@@ -267,7 +313,8 @@ def parse_scenario(data: dict, base_dir: Path, source: Path | None = None) -> Sc
         if key not in data:
             continue
         context = SectionContext(path=key, base_dir=Path(base_dir), world=world,
-                                 robot_types=robot_types, seed=seed)
+                                 robot_types=robot_types, seed=seed,
+                                 earlier=MappingProxyType(dict(sections)))
         entities = list(parser(data[key], context))
         for index, entity in enumerate(entities):
             if not getattr(entity, 'config_path', ''):

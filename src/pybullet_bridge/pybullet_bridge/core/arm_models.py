@@ -1,0 +1,253 @@
+"""Catalogue of the robot arms the bridge can simulate, and their kinematics in pybullet.
+
+Each model is a URDF shipped with ``pybullet_data``. The numbers that are not in the
+URDF are ours and documented where they are defined:
+
+- the *tool point* (where a grasped cube's reference sits): the Panda's
+  ``panda_grasptarget`` link between the fingertips (the cube's centre is held there);
+  for the KUKA iiwa and the xArm6, which have no gripper in pybullet_data, the centre of
+  the flange face, which holds the cube by its top face (a suction-like grasp; the
+  grasp itself is a fixed constraint in every case);
+- the *home* configuration, chosen so every link stays behind the base, outside the
+  column above the table, so the top-view camera sees the whole table;
+- the *ready* configuration, the IK rest pose that keeps solutions elbow-up;
+- the *reach*: horizontal distances from the base axis at which a top-down tool pose
+  (any yaw) is reachable with an IK error below 5 mm, for grasp and place poses whose
+  tool height relative to the base top is within ``reach_height`` and for the travel
+  poses 0.10 m above them (so up to reach_height[1] + 0.10). Measured with
+  :meth:`ArmKinematics.solve_ik` from the home pose over azimuths of +-0.8 rad; the
+  unit tests check them.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+import pybullet_data
+
+
+@dataclass(frozen=True)
+class ArmModel:
+    name: str
+    urdf: str                            # path relative to pybullet_data
+    arm_joints: tuple[str, ...]          # revolute joints the planner drives, base to tip
+    joint_limits: tuple[tuple[float, float], ...]   # rad, from the URDF
+    joint_max_velocity: tuple[float, ...]           # rad/s, from the URDF
+    joint_max_force: tuple[float, ...]              # N m, from the URDF
+    tool_link: str
+    tool_offset: float                   # m along the tool link's z axis to the tool point
+    grasps_from_top: bool                # True: tool point on the cube's top face; False: at its centre
+    finger_joints: tuple[str, ...]       # prismatic finger joints (each opens by its position)
+    finger_max_opening: float            # m, per finger
+    finger_force: float                  # N
+    home: tuple[float, ...]
+    ready: tuple[float, ...]
+    reach: tuple[float, float]           # m, horizontal distance from the base axis
+    reach_height: tuple[float, float]    # m, grasp/place tool height relative to the base top
+    pedestal_radius: float               # m, pedestal under the base (covers the base link)
+
+    @property
+    def max_cube_edge(self) -> float:
+        """Largest cube the gripper can take (m); unlimited for a flange grasp."""
+        if not self.finger_joints:
+            return math.inf
+        return 2.0 * self.finger_max_opening - 0.01
+
+
+ARM_MODELS: dict[str, ArmModel] = {
+    # Franka Emika Panda (pybullet_data franka_panda/panda.urdf).
+    'panda': ArmModel(
+        name='panda', urdf='franka_panda/panda.urdf',
+        arm_joints=tuple(f'panda_joint{i}' for i in range(1, 8)),
+        joint_limits=((-2.9671, 2.9671), (-1.8326, 1.8326), (-2.9671, 2.9671), (-3.1416, 0.0),
+                      (-2.9671, 2.9671), (-0.0873, 3.8223), (-2.9671, 2.9671)),
+        joint_max_velocity=(2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61),
+        joint_max_force=(87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0),
+        tool_link='panda_grasptarget', tool_offset=0.0, grasps_from_top=False,
+        finger_joints=('panda_finger_joint1', 'panda_finger_joint2'), finger_max_opening=0.04,
+        finger_force=20.0,
+        home=(0.0, -1.6, 0.0, -2.9, 0.0, 1.9, 0.785),
+        ready=(0.0, -0.2, 0.0, -2.3, 0.0, 2.1, 0.785),
+        reach=(0.27, 0.74), reach_height=(-0.05, 0.15), pedestal_radius=0.16),
+    # KUKA LBR iiwa 14 (pybullet_data kuka_iiwa/model.urdf); no gripper: flange grasp.
+    'kuka_iiwa': ArmModel(
+        name='kuka_iiwa', urdf='kuka_iiwa/model.urdf',
+        arm_joints=tuple(f'lbr_iiwa_joint_{i}' for i in range(1, 8)),
+        joint_limits=((-2.9671, 2.9671), (-2.0944, 2.0944), (-2.9671, 2.9671), (-2.0944, 2.0944),
+                      (-2.9671, 2.9671), (-2.0944, 2.0944), (-3.0543, 3.0543)),
+        joint_max_velocity=(10.0,) * 7,
+        joint_max_force=(300.0,) * 7,
+        tool_link='lbr_iiwa_link_7', tool_offset=0.048, grasps_from_top=True,
+        finger_joints=(), finger_max_opening=0.0, finger_force=0.0,
+        home=(0.0, -0.3, 0.0, 0.9, 0.0, -0.6, 0.0),
+        ready=(0.0, 0.6, 0.0, -1.2, 0.0, 1.3, 0.0),
+        reach=(0.41, 0.76), reach_height=(-0.05, 0.15), pedestal_radius=0.16),
+    # UFACTORY xArm6 (pybullet_data xarm/xarm6_robot.urdf); no gripper: flange grasp.
+    'xarm6': ArmModel(
+        name='xarm6', urdf='xarm/xarm6_robot.urdf',
+        arm_joints=tuple(f'joint{i}' for i in range(1, 7)),
+        joint_limits=((-6.2832, 6.2832), (-2.059, 2.0944), (-3.927, 0.1920), (-6.2832, 6.2832),
+                      (-1.6930, 3.1416), (-6.2832, 6.2832)),
+        joint_max_velocity=(3.14,) * 6,
+        joint_max_force=(50.0, 50.0, 32.0, 32.0, 32.0, 20.0),
+        tool_link='link6', tool_offset=0.004, grasps_from_top=True,
+        finger_joints=(), finger_max_opening=0.0, finger_force=0.0,
+        home=(0.0, -1.3, -0.3, 0.0, 1.6, 0.0),
+        ready=(0.0, -0.3, -1.2, 0.0, 1.5, 0.0),
+        reach=(0.25, 0.64), reach_height=(-0.05, 0.15), pedestal_radius=0.12),
+}
+
+
+def model_path(model: ArmModel) -> str:
+    return os.path.join(pybullet_data.getDataPath(), model.urdf)
+
+
+def top_down_orientation(yaw: float) -> tuple[float, float, float, float]:
+    """xyzw quaternion of a tool frame pointing straight down, turned by ``yaw`` about world z.
+
+    For the Panda the fingers then close along the world direction yaw - pi/2.
+    """
+    return tuple(p.getQuaternionFromEuler([math.pi, 0.0, yaw]))  # type: ignore[return-value]
+
+
+def wrap_angle(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def grasp_yaw(object_yaw: float, approach_yaw: float) -> float:
+    """Tool yaw aligned with the object's faces (object_yaw + k pi/2) closest to ``approach_yaw``.
+
+    ``approach_yaw`` is the direction from the arm's base to the object, which keeps the
+    wrist near its middle for every arm in the catalogue.
+    """
+    k = round(wrap_angle(approach_yaw - object_yaw) / (math.pi / 2.0))
+    return wrap_angle(object_yaw + k * math.pi / 2.0)
+
+
+class ArmKinematics:
+    """Joint bookkeeping, tool pose and inverse kinematics of one loaded arm body."""
+
+    def __init__(self, model: ArmModel, body: int, client: int):
+        self.model = model
+        self.body = body
+        self.client = client
+        names: dict[str, int] = {}
+        link_of: dict[str, int] = {}
+        self.movable: list[int] = []     # every non-fixed joint, in pybullet's IK order
+        self.movable_names: list[str] = []
+        for index in range(p.getNumJoints(body, physicsClientId=client)):
+            info = p.getJointInfo(body, index, physicsClientId=client)
+            joint_name, link_name = info[1].decode(), info[12].decode()
+            names[joint_name] = index
+            link_of[link_name] = index
+            if info[2] != p.JOINT_FIXED:
+                self.movable.append(index)
+                self.movable_names.append(joint_name)
+        missing = [j for j in model.arm_joints + model.finger_joints if j not in names]
+        if missing or model.tool_link not in link_of:
+            raise RuntimeError(f'{model.urdf} lacks joints {missing} or link {model.tool_link}')
+        self.arm_indices = [names[j] for j in model.arm_joints]
+        self.finger_indices = [names[j] for j in model.finger_joints]
+        self.tool_index = link_of[model.tool_link]
+        # Position of each arm joint within the IK solution vector.
+        self._ik_slots = [self.movable.index(i) for i in self.arm_indices]
+        self._ik_finger_slots = [self.movable.index(i) for i in self.finger_indices]
+        lower, upper = [], []
+        for index in self.movable:
+            info = p.getJointInfo(body, index, physicsClientId=client)
+            lower.append(info[8])
+            upper.append(info[9])
+        self._lower, self._upper = lower, upper
+        self._ranges = [max(u - lo, 1e-3) for lo, u in zip(lower, upper)]
+
+    # -- state ------------------------------------------------------------------
+
+    def arm_positions(self) -> np.ndarray:
+        states = p.getJointStates(self.body, self.arm_indices, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def movable_states(self) -> tuple[list[float], list[float], list[float]]:
+        """(positions, velocities, applied efforts) of every movable joint."""
+        states = p.getJointStates(self.body, self.movable, physicsClientId=self.client)
+        return [s[0] for s in states], [s[1] for s in states], [s[3] for s in states]
+
+    def reset_arm(self, positions) -> None:
+        for index, value in zip(self.arm_indices, positions):
+            p.resetJointState(self.body, index, float(value), 0.0, physicsClientId=self.client)
+
+    def tool_pose(self) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+        """World position of the tool point and orientation (xyzw) of the tool link."""
+        state = p.getLinkState(self.body, self.tool_index, computeForwardKinematics=True,
+                               physicsClientId=self.client)
+        position, orientation = np.array(state[4]), state[5]
+        if self.model.tool_offset:
+            rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+            position = position + rotation[:, 2] * self.model.tool_offset
+        return position, orientation
+
+    # -- inverse kinematics ---------------------------------------------------------
+
+    def _link_target(self, tool_position, orientation) -> list[float]:
+        target = np.asarray(tool_position, dtype=float)
+        if self.model.tool_offset:
+            rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+            target = target - rotation[:, 2] * self.model.tool_offset
+        return target.tolist()
+
+    def ik_step(self, tool_position, orientation, rest=None) -> np.ndarray:
+        """Arm joint positions that move the tool toward the pose, from the current state.
+
+        One call of pybullet's damped-least-squares IK; the null space pulls toward
+        ``rest`` (arm joints; default: the current positions, so successive calls along
+        a path stay on one branch).
+        """
+        current, _, _ = self.movable_states()
+        rest_all = list(current)
+        if rest is not None:
+            for slot, value in zip(self._ik_slots, rest):
+                rest_all[slot] = float(value)
+        solution = p.calculateInverseKinematics(
+            self.body, self.tool_index, self._link_target(tool_position, orientation), orientation,
+            lowerLimits=self._lower, upperLimits=self._upper, jointRanges=self._ranges,
+            restPoses=rest_all, maxNumIterations=50, residualThreshold=1e-5,
+            physicsClientId=self.client)
+        q = np.array([solution[slot] for slot in self._ik_slots])
+        limits = np.array(self.model.joint_limits)
+        return np.clip(q, limits[:, 0], limits[:, 1])
+
+    def solve_ik(self, tool_position, orientation, start=None, rest=None,
+                 iterations: int = 25) -> tuple[np.ndarray, float]:
+        """Converged IK: (arm joint positions, remaining tool error in m).
+
+        Iterates pybullet's IK, setting the arm's joints between calls, from ``start``
+        (default: the current positions) and, if that stays off by more than 1 mm, also
+        from the ``ready`` pose; the better solution wins. The arm is then put back
+        exactly as it was (positions and velocities), so this may run on a live
+        simulation between two physics steps.
+        """
+        target = np.asarray(tool_position, dtype=float)
+        rest = self.model.ready if rest is None else rest
+        saved = p.getJointStates(self.body, self.movable, physicsClientId=self.client)
+        best_q, best_error = None, math.inf
+        try:
+            starts = [self.arm_positions() if start is None else np.asarray(start, dtype=float),
+                      np.asarray(self.model.ready, dtype=float)]
+            for first in starts:
+                self.reset_arm(first)
+                for _ in range(iterations):
+                    q = self.ik_step(target, orientation, rest=rest)
+                    self.reset_arm(q)
+                    error = float(np.linalg.norm(self.tool_pose()[0] - target))
+                    if error < best_error:
+                        best_q, best_error = q, error
+                    if error < 5e-4:
+                        break
+                if best_error < 1e-3:
+                    break
+        finally:
+            for index, state in zip(self.movable, saved):
+                p.resetJointState(self.body, index, state[0], state[1], physicsClientId=self.client)
+        return best_q, best_error
