@@ -17,6 +17,9 @@ setup(
     description='Stackelberg guided collaborative manipulation: leader planner and follower executor.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'leader_planner = sgcm.leader_planner_node:main',
+            'follower_executor = sgcm.follower_executor_node:main',
+        ],
     },
 )

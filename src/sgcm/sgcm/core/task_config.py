@@ -91,6 +91,8 @@ class Workspace:
 
     center: tuple[float, float]
     cell_size: float
+    table_height: float          # z of the table top
+    cube_size: float             # edge of the cubes (their top faces are what the camera sees)
 
     def cell_region(self, rows: int, cols: int, cell: int) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of a cell; row 0 is at +y (top of the camera image)."""
@@ -272,9 +274,15 @@ def _parse_task(data: Any, source: Path | None) -> TaskConfig:
         follower = RobotModel(follower.directions, follower.move_cost, follower.diagonal_cost,
                               fp.number('follower', follower.failure_probability, ge=0.0, le=1.0))
 
-    ws = Fields(top.raw('workspace', {}), 'workspace', allowed=('center', 'cell_size'))
+    ws = Fields(top.raw('workspace', {}), 'workspace',
+                allowed=('center', 'cell_size', 'table_height', 'cube_size'))
     workspace = Workspace(center=ws.vector('center', 2, (0.0, 0.0)),  # type: ignore[arg-type]
-                          cell_size=ws.number('cell_size', 0.15, gt=0.0))
+                          cell_size=ws.number('cell_size', 0.10, gt=0.0),
+                          table_height=ws.number('table_height', 0.40, gt=0.0),
+                          cube_size=ws.number('cube_size', 0.025, gt=0.0))
+    if workspace.cube_size * 3 > workspace.cell_size:
+        raise TaskConfigError(f'workspace.cube_size: three cubes must fit along a cell '
+                              f'(cube_size {workspace.cube_size} m, cell_size {workspace.cell_size} m)')
 
     return TaskConfig(
         rows=rows, cols=cols, cell_capacity=capacity, colours=tuple(names),

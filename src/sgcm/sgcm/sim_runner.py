@@ -1,0 +1,82 @@
+"""Run SGCM cases in simulation and read them back from their bags.
+
+``run_case`` generates the case's bridge scenario into the run directory and runs
+config/experiments/sgcm_case.yaml (bridge + leader_planner + follower_executor, all
+recorded) with the per-run parameters; ``episode_from_bag`` rebuilds the episode from
+the recorded /sgcm/guidance and /sgcm/follower_report messages.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import yaml
+from collab_tools.core.bag_analysis import read_messages
+from collab_tools.orchestration.experiment import ExperimentResult, run_experiment
+
+from .core.episode import EpisodeResult
+from .core.follower_behaviour import FollowerSettings
+from .core.rearrangement import EMPTY, FOLLOWER, LEADER, Move, RearrangementModel
+from .core.round_log import LoggedRound, episode_from_log
+from .core.scenario_builder import build_scenario
+from .core.task_config import Case, TaskConfig
+
+GUIDANCE = '/sgcm/guidance'
+REPORT = '/sgcm/follower_report'
+
+
+def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, config_dir: Path,
+             strategy: str = 'sgcm', follower: FollowerSettings | None = None, seed: int = 0,
+             execution_failures: bool = False, log=print) -> ExperimentResult:
+    follower = follower or FollowerSettings('zero_trust' if strategy == 'greedy' else 'obedient')
+    run_dir.mkdir(parents=True, exist_ok=True)
+    scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
+    (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
+    overrides = {
+        'leader_planner': {'task_file': str(task_file), 'strategy': strategy, 'seed': seed,
+                           'horizon': task.horizon},
+        'follower_executor': {'task_file': str(task_file), 'behaviour': follower.behaviour,
+                              'deviation_probability': follower.deviation_probability,
+                              'deviation_rounds': list(follower.deviation_rounds) or [0], 'seed': seed + 1},
+    }
+    return run_experiment(config_dir / 'experiments' / 'sgcm_case.yaml', config_dir, run_dir=run_dir,
+                          overrides=overrides, log=log)
+
+
+def episode_from_bag(model: RearrangementModel, bag: Path, method: str) -> EpisodeResult:
+    task = model.task
+
+    def action(robot, move):
+        if move.empty:
+            return EMPTY
+        return model.actions[robot].index_of(Move(move.source_cell, move.target_cell,
+                                                  task.colours.index(move.colour)))
+
+    guidance, reports, final = {}, {}, None
+    for topic, _, msg in read_messages(bag, [GUIDANCE, REPORT]):
+        if topic == GUIDANCE:
+            if msg.task_complete or msg.status:
+                final = msg
+            else:
+                guidance[msg.round] = msg
+        else:
+            reports[msg.round] = msg
+    if final is None:
+        raise ValueError(f'{bag}: no final guidance (the leader did not end the task)')
+    rounds = []
+    for number in sorted(guidance):
+        g = guidance[number]
+        report = reports.get(number)
+        rounds.append(LoggedRound(
+            round=number, state=np.array(g.state.counts, dtype=np.int64),
+            leader_action=action(LEADER, g.leader_move), leader_succeeded=bool(g.leader_move_succeeded),
+            recommended_action=action(FOLLOWER, g.recommended_follower_move),
+            follower_action=None if report is None else action(FOLLOWER, report.move),
+            follower_succeeded=bool(report.succeeded) if report else False,
+            follower_deviated=bool(report.deviated) if report else False,
+            planning_seconds=float(g.planning_seconds),
+            predicted_leader_value=float(g.predicted_leader_value),
+            predicted_follower_value=float(g.predicted_follower_value)))
+    final_state = np.array(final.state.counts, dtype=np.int64)
+    return episode_from_log(model, method, rounds, final_state, complete=bool(final.task_complete),
+                            stuck=final.status.startswith('stuck'))
