@@ -42,20 +42,26 @@ def _final_reward(model: RearrangementModel, episode: EpisodeResult) -> float:
 
 
 def run_table1(task: TaskConfig, cases: list[Case], run_dir: Path, log: Log = print,
-               simulate_failures: bool = False, seed: int = 0) -> dict:
+               simulate_failures: bool = False, seed: int = 0, episodes=None) -> dict:
+    """Table I. ``episodes(index, case) -> (sgcm, greedy)`` defaults to the abstract game."""
     model = RearrangementModel(task)
     planner = FSEPlanner(model)
     central = CentralizedPlanner(model)
+
+    def in_core(index, case):
+        state = model.state_of(case)
+        return (run_sgcm(model, state, planner=planner, simulate_failures=simulate_failures, seed=seed + index),
+                run_greedy(model, state, simulate_failures=simulate_failures, seed=seed + index))
+
+    episodes = episodes or in_core
     outcomes = []
     for index, case in enumerate(cases, start=1):
-        state = model.state_of(case)
-        sgcm = run_sgcm(model, state, planner=planner, simulate_failures=simulate_failures, seed=seed + index)
-        greedy = run_greedy(model, state, simulate_failures=simulate_failures, seed=seed + index)
+        sgcm, greedy = episodes(index, case)
         rounds = sgcm.rounds
         outcome = CaseOutcome(case.name, sgcm, greedy,
                               sgcm.utility_over(rounds, _final_reward(model, sgcm)),
                               greedy.utility_over(rounds, _final_reward(model, greedy)),
-                              central.plan(state).rounds)
+                              central.plan(model.state_of(case)).rounds)
         outcomes.append(outcome)
         log(f'[sgcm-table1 {index}/{len(cases)}] {case.name}: greedy '
             f'{"completed" if greedy.completed else "stuck"} in {greedy.rounds} rounds, SGCM '
@@ -64,6 +70,34 @@ def run_table1(task: TaskConfig, cases: list[Case], run_dir: Path, log: Log = pr
             f'{outcome.sgcm_utility:.1f}')
     results = table1_results(outcomes, task)
     write_table1(results, outcomes, run_dir)
+    return results
+
+
+def run_table1_sim(task: TaskConfig, task_file: Path, cases: list[Case], run_dir: Path, config_dir: Path,
+                   log: Log = print, seed: int = 0) -> dict:
+    """Table I in simulation: every case run twice (greedy, SGCM), recorded; the table
+    is computed from the bags."""
+    from .sim_runner import episode_from_bag, run_case
+    model = RearrangementModel(task)
+    quiet = lambda _text: None  # noqa: E731  (the session's own lines would drown the progress)
+
+    def in_sim(index, case):
+        found = {}
+        for strategy in ('greedy', 'sgcm'):
+            case_dir = run_dir / case.name / strategy
+            log(f'[sgcm-table1 {index}/{len(cases)}] {case.name}: running {strategy} in simulation '
+                f'({case_dir})')
+            result = run_case(task, task_file, case, case_dir, config_dir, strategy=strategy,
+                              seed=seed + index, log=quiet)
+            if result.exit_code != 0 or result.bag is None:
+                raise RuntimeError(f'{case.name} {strategy}: simulation run failed ({result.message}); '
+                                   f'logs in {case_dir / "logs"}')
+            found[strategy] = episode_from_bag(model, result.bag, strategy)
+        return found['sgcm'], found['greedy']
+
+    results = run_table1(task, cases, run_dir, log=log, episodes=in_sim)
+    results['mode'] = 'sim'
+    (run_dir / 'results.json').write_text(json.dumps(results, indent=2))
     return results
 
 
@@ -79,7 +113,7 @@ def table1_results(outcomes: list[CaseOutcome], task: TaskConfig) -> dict:
                      'planning_seconds': [r.planning_seconds for r in o.sgcm.records]},
             'centralized': {'rounds': o.centralized_rounds},
         })
-    return {'experiment': 'sgcm-table1', 'horizon': task.horizon,
+    return {'experiment': 'sgcm-table1', 'mode': 'core', 'horizon': task.horizon,
             'failure_probability': {'leader': task.leader.failure_probability,
                                     'follower': task.follower.failure_probability},
             'utility_accounting': 'sum over SGCM rounds of r(state after round) - both costs',
@@ -161,12 +195,15 @@ def run_disturbance(task: TaskConfig, cases: list[Case], run_dir: Path, log: Log
     for index, case in enumerate(cases, start=1):
         state = model.state_of(case)
         per_case = {}
+        common_rounds = None  # the perfect follower's rounds: utilities are summed over them
         for name, (settings, failures) in DISTURBANCE_SETTINGS.items():
             episode = run_sgcm(model, state, follower=settings, planner=planner, simulate_failures=failures,
                                seed=seed + 100 * index, round_limit=round_limit)
+            common_rounds = common_rounds or episode.rounds
             per_case[name] = {
                 'completed': episode.completed, 'rounds': episode.rounds,
-                'utility': float(sum(episode.stage_utilities)),
+                'utility': episode.utility_over(common_rounds, _final_reward(model, episode)),
+                'utility_all_rounds': float(sum(episode.stage_utilities)),
                 'stage_utilities': episode.stage_utilities,
                 'deviations': sum(r.follower_deviated for r in episode.records),
                 'failed_moves': sum((not r.leader_succeeded) + (not r.follower_succeeded)
@@ -175,7 +212,8 @@ def run_disturbance(task: TaskConfig, cases: list[Case], run_dir: Path, log: Log
             done += 1
             log(f'[sgcm-disturbance {done}/{total}] {case.name} {name}: '
                 f'{"completed" if episode.completed else "NOT completed"} in {episode.rounds} rounds, '
-                f'utility {per_case[name]["utility"]:.1f}, {per_case[name]["deviations"]} deviations')
+                f'utility {per_case[name]["utility"]:.1f} over {common_rounds} rounds, '
+                f'{per_case[name]["deviations"]} deviations')
         results['cases'][case.name] = per_case
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / 'results.json').write_text(json.dumps(results, indent=2))
@@ -191,7 +229,8 @@ def _write_disturbance_table(results: dict, path: Path) -> None:
         cells = [f'{"Yes" if r["completed"] else "No"}, {r["rounds"]} r, {r["utility"]:.1f}'
                  for r in (per_case[n] for n in names)]
         lines.append(f'| {case} | ' + ' | '.join(cells) + ' |')
-    path.write_text('completed, rounds, utility (sum of stage-wise utilities) per follower setting\n\n'
+    path.write_text('completed, rounds, utility (sum of stage-wise utilities over the perfect run\'s rounds, '
+                    'as Table I sums greedy over SGCM\'s rounds) per follower setting\n\n'
                     + '\n'.join(lines) + '\n')
 
 
