@@ -79,3 +79,27 @@ def test_follower_drops_malformed_guidance_and_keeps_working(session, tmp_path, 
     assert final.task_complete, final.status
     log = (session.run_dir / 'logs' / 'follower_executor.log').read_text()
     assert 'dropped malformed guidance for round 1000' in log
+
+
+@pytest.mark.parametrize('executable, parameters, expected', [
+    ('leader_planner', {}, 'parameter task_file: required'),
+    ('leader_planner', {'strategy': 'telepathy'}, 'parameter strategy: must be one of sgcm, greedy'),
+    ('leader_planner', {'solver': 'oracle'}, "parameter solver: must be one of fast, milp"),
+    ('follower_executor', {'behaviour': 'sneaky'}, 'parameter behaviour: must be one of'),
+    ('follower_executor', {'deviation_probability': 1.5}, 'deviation_probability: must be in [0, 1]'),
+])
+def test_bad_parameters_stop_the_node_with_a_message(session, task_file, executable, parameters, expected):
+    if parameters:
+        parameters = {'task_file': str(task_file), **parameters}
+    process = session.start(NodeSpec('sgcm', executable, name=executable, parameters=[parameters]))
+    assert session.wait_for_exit(executable, timeout=60.0) == 2
+    assert expected in process.log_path.read_text()
+
+
+def test_bad_task_file_names_the_field(session, tmp_path):
+    bad = tmp_path / 'task.yaml'
+    bad.write_text('colours: {red: {goal: [5, 0], rgb: [1, 0, 0]}}\n')
+    process = session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner',
+                                     parameters=[{'task_file': str(bad)}]))
+    assert session.wait_for_exit('leader_planner', timeout=60.0) == 2
+    assert 'colours.red.goal: cell [5, 0] is outside the 3x3 grid' in process.log_path.read_text()

@@ -142,9 +142,7 @@ def _plot_stage_utilities(outcomes: list[CaseOutcome], path: Path) -> None:
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    columns = 5
-    rows = (len(outcomes) + columns - 1) // columns
-    fig, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 2.6 * rows), squeeze=False)
+    fig, axes = _case_grid(plt, len(outcomes))
     for ax, o in zip(axes.flat, outcomes):
         rounds = o.sgcm.rounds
         greedy = o.greedy.stage_utilities[:rounds]
@@ -152,16 +150,25 @@ def _plot_stage_utilities(outcomes: list[CaseOutcome], path: Path) -> None:
         ax.plot(range(1, rounds + 1), o.sgcm.stage_utilities, 'o-', label='SGCM')
         ax.plot(range(1, rounds + 1), greedy, 's--', label='greedy')
         ax.set_title(f'{o.case} ({"stuck" if not o.greedy.completed else "both complete"})', fontsize=9)
-        ax.set_xlabel('round')
-        ax.set_ylabel('stage-wise utility')
-        ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(outcomes):]:
-        ax.axis('off')
     axes.flat[0].legend(fontsize=8)
     fig.suptitle('Stage-wise utility, SGCM vs greedy (Fig. 4)')
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _case_grid(plt, count: int, columns: int = 5):
+    """One stage-wise-utility panel per case; spare panels hidden."""
+    rows = (count + columns - 1) // columns
+    fig, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 2.6 * rows), squeeze=False)
+    for index, ax in enumerate(axes.flat):
+        if index >= count:
+            ax.axis('off')
+            continue
+        ax.set_xlabel('round')
+        ax.set_ylabel('stage-wise utility')
+        ax.grid(alpha=0.3)
+    return fig, axes
 
 
 def _final_reward_from(episode: EpisodeResult) -> float:
@@ -240,20 +247,13 @@ def _plot_disturbance(results: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     cases = list(results['cases'])
-    columns = 5
-    rows = (len(cases) + columns - 1) // columns
-    fig, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 2.6 * rows), squeeze=False)
+    fig, axes = _case_grid(plt, len(cases))
     styles = {'perfect': 'o-', 'disturbed': 's--', 'zero_trust': '^-.', 'random': 'x:', 'adversarial': 'v:'}
     for ax, case in zip(axes.flat, cases):
         for name, record in results['cases'][case].items():
             values = record['stage_utilities']
             ax.plot(range(1, len(values) + 1), values, styles[name], label=name, markersize=3)
         ax.set_title(case, fontsize=9)
-        ax.set_xlabel('round')
-        ax.set_ylabel('stage-wise utility')
-        ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(cases):]:
-        ax.axis('off')
     axes.flat[0].legend(fontsize=7)
     fig.suptitle('SGCM with disturbances, zero trust and hostile followers (Fig. 5)')
     fig.tight_layout()

@@ -9,12 +9,9 @@ zero_trust, random, adversarial; see sgcm.core.follower_behaviour), executes it 
 
 import sys
 
-import rclpy
 from bridge_interfaces.action import PickAndPlace
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionClient
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
@@ -22,21 +19,17 @@ from rclpy.time import Time
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from .camera_input import CameraInput
+from .node_support import ConfigurationError, declare as declare_parameter, run
 from .core.follower_behaviour import Follower, FollowerSettings
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task
 from .ros_conversions import action_from_msg, counts_from_msg, move_msg
 
 
-class ConfigurationError(ValueError):
-    pass
-
-
 class FollowerExecutor(Node):
     def __init__(self):
         super().__init__('follower_executor')
-        declare = lambda name, default, text: self.declare_parameter(  # noqa: E731
-            name, default, ParameterDescriptor(description=text, dynamic_typing=True))
+        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
         declare('task_file', '', 'task YAML (config/sgcm/task.yaml)')
         declare('behaviour', 'obedient', 'obedient | myopic | zero_trust | random | adversarial')
         declare('deviation_probability', 0.0, 'random behaviour: probability of a random move per round')
@@ -147,24 +140,7 @@ class FollowerExecutor(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = FollowerExecutor()
-    except ConfigurationError as error:
-        rclpy.logging.get_logger('follower_executor').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
-        return 2
-    try:
-        if node.exit_when_done:
-            rclpy.spin_until_future_complete(node, node.finished)
-        else:
-            rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(FollowerExecutor, 'follower_executor', args)
 
 
 if __name__ == '__main__':

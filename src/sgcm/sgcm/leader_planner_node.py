@@ -13,18 +13,16 @@ orchestration script can wait for it.
 import sys
 
 import numpy as np
-import rclpy
 from bridge_interfaces.action import PickAndPlace
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionClient
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from .camera_input import CameraInput
+from .node_support import ConfigurationError, declare as declare_parameter, run
 from .core.follower_behaviour import greedy_action
 from .core.fse import FSEPlanner
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
@@ -34,15 +32,10 @@ from .ros_conversions import grid_state_msg, move_msg
 STRATEGIES = ('sgcm', 'greedy')
 
 
-class ConfigurationError(ValueError):
-    pass
-
-
 class LeaderPlanner(Node):
     def __init__(self):
         super().__init__('leader_planner')
-        declare = lambda name, default, text: self.declare_parameter(  # noqa: E731
-            name, default, ParameterDescriptor(description=text, dynamic_typing=True))
+        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
         declare('task_file', '', 'task YAML (config/sgcm/task.yaml)')
         declare('horizon', 0, 'T; 0 = the task file game.horizon')
         declare('solver', 'fast', 'stage-game solver: fast | milp')
@@ -231,26 +224,7 @@ class LeaderPlanner(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = LeaderPlanner()
-    except ConfigurationError as error:
-        rclpy.logging.get_logger('leader_planner').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
-        return 2
-    try:
-        if node.exit_when_done:
-            rclpy.spin_until_future_complete(node, node.finished)
-            # Give the last Guidance a moment to reach late subscribers (recorders).
-            rclpy.spin_until_future_complete(node, Future(), timeout_sec=0.5)
-        else:
-            rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(LeaderPlanner, 'leader_planner', args)
 
 
 if __name__ == '__main__':

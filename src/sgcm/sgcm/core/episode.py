@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .follower_behaviour import Follower, FollowerSettings, greedy_action
+from .follower_behaviour import Follower, FollowerChoice, FollowerSettings, greedy_action
 from .fse import FSEPlanner
 from .rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 
@@ -104,38 +104,41 @@ def _stuck(history: list[bytes], state: np.ndarray, simulate_failures: bool) -> 
     return not simulate_failures and state.tobytes() in history
 
 
-def run_sgcm(model: RearrangementModel, initial: np.ndarray, follower: FollowerSettings | None = None,
-             planner: FSEPlanner | None = None, simulate_failures: bool = False, seed: int = 0,
-             round_limit: int | None = None, progress=None) -> EpisodeResult:
-    """Algorithm 1: plan the FSE at the observed state, leader moves, follower responds, repeat."""
-    planner = planner or FSEPlanner(model)
-    follower_model = Follower(model, follower or FollowerSettings(), seed=seed + 1)
+@dataclass(frozen=True)
+class _LeaderTurn:
+    action: int
+    recommended: int | None = None       # None: no guidance (greedy baseline)
+    leader_value: float | None = None
+    follower_value: float | None = None
+    planning_seconds: float = 0.0
+
+
+def _play(model: RearrangementModel, method: str, initial: np.ndarray, leader_turn, follower_turn,
+          simulate_failures: bool, seed: int, round_limit: int | None, progress=None) -> EpisodeResult:
+    """The round loop shared by SGCM and the baseline: leader, then follower, then observe."""
     rng = np.random.default_rng(seed)
     executor = _Executor(model, simulate_failures, rng)
     state = model.state_of(initial)
     goal = model.goal_state(state)
     limit = model.task.round_limit if round_limit is None else round_limit
-    result = EpisodeResult('sgcm', completed=np.array_equal(state, goal), stuck=False, rounds=0)
+    result = EpisodeResult(method, completed=np.array_equal(state, goal), stuck=False, rounds=0)
     history = [state.tobytes()]
     while not result.completed and result.rounds < limit:
         number = result.rounds + 1
-        plan = planner.plan(state)
-        leader_action = plan.leader_action
-        if len(plan.leader_actions) > 1:  # a mixed commitment: the leader samples it
-            leader_action = int(rng.choice(plan.leader_actions, p=plan.leader_policy))
-        after_leader, leader_ok, leader_cost = executor.attempt(state, LEADER, leader_action)
-        choice = follower_model.choose(number, after_leader, state, leader_action, plan.follower_action)
+        turn = leader_turn(number, state, rng)
+        after_leader, leader_ok, leader_cost = executor.attempt(state, LEADER, turn.action)
+        choice = follower_turn(number, after_leader, state, turn)
         after, follower_ok, follower_cost = executor.attempt(after_leader, FOLLOWER, choice.action)
         reward = float(model.reward(after))
         result.records.append(RoundRecord(
             round=number, state=state.tolist(), reward=reward,
-            leader_action=model.describe(LEADER, leader_action), leader_succeeded=leader_ok,
-            recommended_action=model.describe(FOLLOWER, plan.follower_action),
+            leader_action=model.describe(LEADER, turn.action), leader_succeeded=leader_ok,
+            recommended_action='' if turn.recommended is None else model.describe(FOLLOWER, turn.recommended),
             follower_action=model.describe(FOLLOWER, choice.action), follower_succeeded=follower_ok,
             follower_deviated=choice.deviated, leader_cost=leader_cost, follower_cost=follower_cost,
             stage_utility=reward - leader_cost - follower_cost,
-            predicted_leader_value=plan.leader_value, predicted_follower_value=plan.follower_value,
-            planning_seconds=plan.seconds, next_state=after.tolist()))
+            predicted_leader_value=turn.leader_value, predicted_follower_value=turn.follower_value,
+            planning_seconds=turn.planning_seconds, next_state=after.tolist()))
         result.rounds = number
         state = after
         result.completed = bool(np.array_equal(state, goal))
@@ -149,36 +152,32 @@ def run_sgcm(model: RearrangementModel, initial: np.ndarray, follower: FollowerS
     return result
 
 
+def run_sgcm(model: RearrangementModel, initial: np.ndarray, follower: FollowerSettings | None = None,
+             planner: FSEPlanner | None = None, simulate_failures: bool = False, seed: int = 0,
+             round_limit: int | None = None, progress=None) -> EpisodeResult:
+    """Algorithm 1: plan the FSE at the observed state, leader moves, follower responds, repeat."""
+    planner = planner or FSEPlanner(model)
+    follower_model = Follower(model, follower or FollowerSettings(), seed=seed + 1)
+
+    def leader_turn(number, state, rng):
+        plan = planner.plan(state)
+        action = plan.leader_action
+        if len(plan.leader_actions) > 1:  # a mixed commitment: the leader samples it
+            action = int(rng.choice(plan.leader_actions, p=plan.leader_policy))
+        return _LeaderTurn(action, plan.follower_action, plan.leader_value, plan.follower_value, plan.seconds)
+
+    def follower_turn(number, seen, round_state, turn):
+        return follower_model.choose(number, seen, round_state, turn.action, turn.recommended)
+
+    return _play(model, 'sgcm', initial, leader_turn, follower_turn, simulate_failures, seed, round_limit,
+                 progress)
+
+
 def run_greedy(model: RearrangementModel, initial: np.ndarray, simulate_failures: bool = False,
                seed: int = 0, round_limit: int | None = None) -> EpisodeResult:
     """Section V-A baseline: each robot in turn maximises its own one-stage utility."""
-    rng = np.random.default_rng(seed)
-    executor = _Executor(model, simulate_failures, rng)
-    state = model.state_of(initial)
-    goal = model.goal_state(state)
-    limit = model.task.round_limit if round_limit is None else round_limit
-    result = EpisodeResult('greedy', completed=np.array_equal(state, goal), stuck=False, rounds=0)
-    history = [state.tobytes()]
-    while not result.completed and result.rounds < limit:
-        number = result.rounds + 1
-        leader_action = greedy_action(model, state, LEADER)
-        after_leader, leader_ok, leader_cost = executor.attempt(state, LEADER, leader_action)
-        follower_action = greedy_action(model, after_leader, FOLLOWER)
-        after, follower_ok, follower_cost = executor.attempt(after_leader, FOLLOWER, follower_action)
-        reward = float(model.reward(after))
-        result.records.append(RoundRecord(
-            round=number, state=state.tolist(), reward=reward,
-            leader_action=model.describe(LEADER, leader_action), leader_succeeded=leader_ok,
-            recommended_action='', follower_action=model.describe(FOLLOWER, follower_action),
-            follower_succeeded=follower_ok, follower_deviated=False,
-            leader_cost=leader_cost, follower_cost=follower_cost,
-            stage_utility=reward - leader_cost - follower_cost, next_state=after.tolist()))
-        result.rounds = number
-        state = after
-        result.completed = bool(np.array_equal(state, goal))
-        if not result.completed and _stuck(history, state, simulate_failures):
-            result.stuck = True
-            break
-        history.append(state.tobytes())
-    result.final_state = state.tolist()
-    return result
+    return _play(model, 'greedy', initial,
+                 lambda number, state, rng: _LeaderTurn(greedy_action(model, state, LEADER)),
+                 lambda number, seen, round_state, turn: FollowerChoice(
+                     greedy_action(model, seen, FOLLOWER), False, 'greedy'),
+                 simulate_failures, seed, round_limit)

@@ -1,0 +1,40 @@
+"""What the two SGCM nodes share: parameter declaration and the main() life cycle."""
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.task import Future
+
+
+class ConfigurationError(ValueError):
+    """A parameter the node cannot start with; the message names it."""
+
+
+def declare(node: Node, name: str, default, description: str):
+    # Dynamic typing: a YAML `0` for a float parameter gets our clear error, not an rclpy exception.
+    node.declare_parameter(name, default, ParameterDescriptor(description=description, dynamic_typing=True))
+
+
+def run(node_class, name: str, args=None) -> int:
+    """Create the node, spin it until its ``finished`` future (exit_when_done) or shutdown."""
+    rclpy.init(args=args)
+    try:
+        node = node_class()
+    except ConfigurationError as error:
+        rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
+        rclpy.try_shutdown()
+        return 2
+    try:
+        if node.exit_when_done:
+            rclpy.spin_until_future_complete(node, node.finished)
+            # Give the last messages a moment to reach late subscribers (recorders).
+            rclpy.spin_until_future_complete(node, Future(), timeout_sec=0.5)
+        else:
+            rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
