@@ -2,9 +2,15 @@
 
 Both robots' moves are chosen together by one planner and never fail, so a round goes
 from s to step(s, a^A, a^B) for any feasible pair. A* over states with the admissible
-heuristic max(ceil(D / 2), d_max): in one round each robot moves one object by one
-cell, so the total Chebyshev distance D of the objects to their goals drops by at most
-2 and the farthest object (Chebyshev distance d_max) needs at least d_max rounds.
+(and consistent) heuristic max(ceil(D / 2), ceil(M / (m^A + m^B))): in one round each
+robot moves one object by one cell, so the total Chebyshev distance D of the objects to
+their goals drops by at most 2, and the total Manhattan distance M by at most m^A + m^B,
+where a robot's move shortens it by m = 2 with diagonal moves (8 directions), else 1.
+The follower may carry on the object the leader just put down (relay), so one object can
+travel two cells in a round: the farthest object alone bounds the rounds only by half its
+distance, which ceil(D / 2) already covers. Among frontier entries of equal f the deeper
+one is expanded first; with a tight heuristic this reaches the goal without sweeping
+the whole plateau of equal-f states.
 """
 from __future__ import annotations
 
@@ -34,12 +40,18 @@ class CentralizedPlanner:
         self._distance = np.zeros(model.dim, dtype=np.int64)  # per (cell, colour) slot
         for colour, goal in enumerate(t.goals):
             self._distance[np.arange(t.cells) * model.colours + colour] = cheb[:, goal]
+        manhattan = np.abs(rows[:, None] - rows[None, :]) + np.abs(cols[:, None] - cols[None, :])
+        self._manhattan = np.zeros(model.dim, dtype=np.int64)
+        for colour, goal in enumerate(t.goals):
+            self._manhattan[np.arange(t.cells) * model.colours + colour] = manhattan[:, goal]
+        # Largest drop of the total Manhattan distance in one round (a diagonal move: 2).
+        self._manhattan_per_round = sum(2 if r.directions == 8 else 1 for r in (t.leader, t.follower))
 
     def heuristic(self, states: np.ndarray) -> np.ndarray:
         states = np.atleast_2d(states)
-        total = states @ self._distance
-        farthest = np.where(states > 0, self._distance, 0).max(axis=1)
-        return np.maximum((total + 1) // 2, farthest)
+        chebyshev = states @ self._distance
+        manhattan = states @ self._manhattan
+        return np.maximum(-(-chebyshev // 2), -(-manhattan // self._manhattan_per_round))
 
     def plan(self, initial: np.ndarray) -> JointPlan:
         model = self.model
@@ -47,13 +59,15 @@ class CentralizedPlanner:
         goal_key = model.key(model.goal_state(start))
         counter = itertools.count()
         start_key = model.key(start)
+        # Entries (f, -g, tie, key): equal f pops the deeper state first.
         frontier = [(int(self.heuristic(start)[0]), 0, next(counter), start_key)]
         states = {start_key: start}
         cost = {start_key: 0}
         parent: dict = {start_key: None}
         expanded = 0
         while frontier and expanded < self.node_limit:
-            _, g, _, key = heapq.heappop(frontier)
+            _, depth, _, key = heapq.heappop(frontier)
+            g = -depth
             if g > cost[key]:
                 continue
             if key == goal_key:
@@ -74,10 +88,10 @@ class CentralizedPlanner:
                 if child in cost and cost[child] <= g + 1:
                     continue
                 cost[child] = g + 1
-                states[child] = flat[index]
+                states[child] = flat[index].copy()  # a view would keep all of `successors` alive
                 ai, bi = divmod(index, len(b))
                 parent[child] = (key, int(a[ai]), int(b[bi]))
-                heapq.heappush(frontier, (g + 1 + int(h[index]), g + 1, next(counter), child))
+                heapq.heappush(frontier, (g + 1 + int(h[index]), -(g + 1), next(counter), child))
         return JointPlan(None, [], expanded)
 
     def _moves(self, parent, key) -> list[tuple[str, str]]:

@@ -20,7 +20,9 @@ Two exact solvers:
   lambda, solved with HiGHS; big-M is the follower's payoff range in this stage game
   (lambda - (U^B)^T x lies in [0, max U^B - min U^B] at any feasible point, so a smaller
   M cuts off solutions and a larger one only weakens the relaxation and the numerics).
-  The secondary rule is a second MILP with the leader value fixed.
+  The secondary rule is a second MILP with the leader value fixed; rule 2 is applied to
+  its answer (HiGHS may return any of several equivalent follower actions): a lower
+  follower action attaining both values replaces it (checked by its pure rows, else one LP).
 - :func:`solve_fast`: one LP per follower action j ("multiple LPs"), skipped when it
   cannot matter: a column whose best leader payoff is below the best value found cannot
   win, and when a pure commitment with j as a best response reaches the column's upper
@@ -243,14 +245,29 @@ def solve_milp(ua: np.ndarray, ub: np.ndarray, tolerance: float = DEFAULT_TOLERA
     j = int(np.argmax(solution.x[m * n:m * n + n]))
     policy = zmat.sum(axis=1)
     policy = policy / policy.sum()
-    # Canonical form: a pure row reaching the same values is reported as pure.
     leader_value, follower_value = float(ua[:, j] @ policy), float(ub[:, j] @ policy)
-    br = _best_response_mask(ub, tol)[:, j]
+    programs = 2 if second.status == 0 else 1
+    # Rule 2: HiGHS may return any of several follower actions attaining both values; report
+    # the lowest one, as solve_fast does (columns whose best entries fall short are skipped).
+    br_all = _best_response_mask(ub, tol)
+    for k in range(j):
+        if ua[:, k].max() < leader_value - tol or ub[:, k].max() < follower_value - tol:
+            continue
+        if (br_all[:, k] & (ua[:, k] >= leader_value - tol) & (ub[:, k] >= follower_value - tol)).any():
+            j = k  # a pure row attains the values; the canonical form below picks it
+            break
+        solved = _lp_column(ua, ub, k, ub[:, k], floor=(ua[:, k], leader_value - tol))
+        programs += 1
+        if solved is not None and solved[0] >= follower_value - tol:
+            j, policy = k, solved[1]
+            break
+    # Canonical form: a pure row reaching the same values is reported as pure.
+    br = br_all[:, j]
     pure_rows = np.flatnonzero(br & (ua[:, j] >= leader_value - tol) & (ub[:, j] >= follower_value - tol))
     if len(pure_rows):
         policy = _pure(int(pure_rows[0]), m)
-        leader_value, follower_value = float(ua[pure_rows[0], j]), float(ub[pure_rows[0], j])
-    return StageSolution(policy, j, leader_value, follower_value, 2 if second.status == 0 else 1)
+    leader_value, follower_value = float(ua[:, j] @ policy), float(ub[:, j] @ policy)
+    return StageSolution(policy, j, leader_value, follower_value, programs)
 
 
 SOLVERS = {'fast': solve_fast, 'milp': solve_milp}
