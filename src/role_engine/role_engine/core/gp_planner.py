@@ -15,10 +15,11 @@ the previous solution when re-planning: that is the warm start). The cost is
 
 Two formulations minimise the same cost with the same LM rules: ``'vectorised'`` (numpy,
 banded normal equations; :mod:`.gp_vectorised`) and ``'gtsam'`` (factor graph with
-``WnoaMotionFactorPoint2`` and ``CustomFactor``; :mod:`.gp_gtsam`). ``scripts/bench_gpmp.py``
-times them on identical problems; the vectorised one is the default because it is about 30x
-faster there (100 states, 200 x 200 map; the Python callbacks of the CustomFactors dominate
-the gtsam one) at the same final cost. The gtsam graph stays available for ISAM2.
+``WnoaMotionFactorPoint2`` and ``CustomFactor``; :mod:`.gp_gtsam`). ``scripts/bench gpmp``
+(:mod:`role_engine.benchmark`) times them on identical problems; the vectorised one is the
+default because it is about 30x faster there (100 states, 200 x 200 map; the Python callbacks
+of the CustomFactors dominate the gtsam one) at the same final cost. The gtsam graph stays
+available for ISAM2.
 
 Choices where the paper is silent: sigmas are standard deviations (GPMP2's convention);
 the start and goal states default to the first and last rows of the initial trajectory; a
@@ -100,6 +101,9 @@ class GPPlannerConfig:
     #: Levenberg-Marquardt: iteration cap and relative-decrease stop (Sec. IV).
     max_iterations: int = 100
     relative_error_tol: float = 1e-5
+    #: Initial LM damping. gtsam's default 1e-5 makes the first step almost Gauss-Newton, which can
+    #: jump support states across a thin wall; GPMP2's planners (the paper's library) start at 1000.
+    lambda_initial: float = 1e-5
     #: GP-interpolated instants per interval also checked by ``collision_free`` / ``min_clearance``.
     collision_check_interpolation: int = 4
     #: 'vectorised' or 'gtsam'.
@@ -124,6 +128,7 @@ class GPPlannerConfig:
         if self.max_speed is not None:
             _check_real(self.max_speed, f'{path}.max_speed', positive=True)
         _check_real(self.relative_error_tol, f'{path}.relative_error_tol', non_negative=True)
+        _check_real(self.lambda_initial, f'{path}.lambda_initial', positive=True)
         _check_count(self.obstacle_interpolation, f'{path}.obstacle_interpolation', minimum=0)
         _check_count(self.collision_check_interpolation, f'{path}.collision_check_interpolation', minimum=0)
         _check_count(self.max_iterations, f'{path}.max_iterations', minimum=1)
@@ -146,7 +151,8 @@ class GPPlannerConfig:
 
     @property
     def lm_settings(self) -> LMSettings:
-        return LMSettings(max_iterations=self.max_iterations, relative_error_tol=self.relative_error_tol)
+        return LMSettings(max_iterations=self.max_iterations, relative_error_tol=self.relative_error_tol,
+                          lambda_initial=self.lambda_initial)
 
 
 @dataclass
