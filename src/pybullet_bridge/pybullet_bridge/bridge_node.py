@@ -30,6 +30,7 @@ from .core.scenario import load_scenario
 from .core.scene import Scene
 from .entity_adapters import create_adapters
 from . import arm_adapter  # noqa: F401  (registers the arms' adapter)
+from . import sensor_adapter  # noqa: F401  (registers the robots' adapter with their sensors)
 
 MAX_STEPS_PER_REQUEST = 100_000
 # Ticks run at most this far behind wall-clock pacing before the bridge gives up

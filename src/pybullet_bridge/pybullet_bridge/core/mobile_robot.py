@@ -16,6 +16,7 @@ from .diff_drive import DiffDriveLimits, limit_velocity
 from .fields import Fields, fail, join_path, require_list
 from .scenario import ROBOT_TYPE_FIELDS, SectionContext, register_section
 from .scene import SceneEntity
+from .sensor_config import SensorSet, parse_robot_sensors
 
 #: Robots' colours must be at least this far apart (Euclidean RGB) to be told apart on camera.
 MIN_COLOR_DISTANCE = 0.1
@@ -64,11 +65,13 @@ class MobileRobot(SceneEntity):
     kind = 'mobile_robot'
 
     def __init__(self, name: str, params: RobotParams, initial_pose: tuple[float, float, float],
-                 config_path: str = ''):
+                 config_path: str = '', sensors: SensorSet | None = None):
         self.name = name
         self.params = params
         self.initial_pose = tuple(float(v) for v in initial_pose)
         self.config_path = config_path
+        #: Simulated sensors the robot carries (core/sensor_config.py); None: none.
+        self.sensors = sensors
         self._reset_motion_state()
 
     def _reset_motion_state(self) -> None:
@@ -166,7 +169,7 @@ def parse_mobile_robots(value: Any, context: SectionContext) -> list[MobileRobot
     robots: list[MobileRobot] = []
     for index, item in enumerate(require_list(value, context.path)):
         path = join_path(context.path, index)
-        fields = Fields(item, path, allowed=('name', 'type', 'pose', 'color', *ROBOT_TYPE_FIELDS))
+        fields = Fields(item, path, allowed=('name', 'type', 'pose', 'color', *ROBOT_TYPE_FIELDS, 'sensors'))
         name = fields.name('name')
         type_name = fields.string('type')
         if type_name not in context.robot_types:
@@ -186,7 +189,10 @@ def parse_mobile_robots(value: Any, context: SectionContext) -> list[MobileRobot
                            f'{other.config_path} {list(other.params.color)} (distance {distance:.3f} < '
                            f'{MIN_COLOR_DISTANCE}); robots must be distinguishable on camera')
         params = RobotParams.from_type(type_name, type_fields, color)
-        robots.append(MobileRobot(name, params, pose, config_path=path))  # type: ignore[arg-type]
+        sensors = parse_robot_sensors(fields.raw('sensors', None), fields.path_of('sensors'),
+                                      context.seed, index)
+        robots.append(MobileRobot(name, params, pose, config_path=path,  # type: ignore[arg-type]
+                                  sensors=sensors))
     return robots
 
 

@@ -47,6 +47,25 @@ Schema (defaults shown; fields without a default are required)::
         color: [0.9, 0.1, 0.1]        # required, r g b in [0, 1]; robots' colours must differ
                                       # by at least 0.1 (Euclidean) so the camera can tell them apart
         # any robot_types field may be overridden here, e.g. radius: 0.25
+        sensors:                      # optional (core/sensor_config.py, core/sensors.py): the
+                                      # simulated sensors the robot carries, at most one per kind;
+                                      # each is listed by its name, {} takes every default. All sit at
+                                      # the robot's centre facing its heading; every one has
+                                      # active: true (publishing from the start; switchable at run
+                                      # time) and rate: 10.0 (Hz of simulated time, (0, 100]).
+          seed: null                  # int; default derived from the scenario seed and robot index
+          fiducial:                   # detects robots, targets, movable boxes by name
+            fov_deg: 180.0            # full opening angle (deg), (0, 360], centred on the heading
+            range: 4.0                # m, centre to centre, (0, 100]
+            range_noise_std: 0.0      # m, >= 0, added to the reported range
+            bearing_noise_std: 0.0    # rad, >= 0, added to the reported bearing
+            kinds: [mobile_robot, target, movable_box]   # which kinds it detects
+                                      # (seen = within range and FOV and in line of sight: a ray to
+                                      # the entity's centre hits no other body first)
+          laser: {fov_deg: 180.0, beams: 181, range: 8.0, noise_std: 0.0}
+                                      # beams in [1, 2048]; range (m) in (0, 100]
+          gps: {noise_std: 0.0, yaw_noise_std: 0.0}   # m per axis, rad
+          bumper: {fov_deg: 360.0}    # contacts outside this arc around the heading are not felt
     obstacles:                        # optional, static obstacles
       boxes:                          # optional list
         - name: shelf                 # optional, default obstacle_<index>
@@ -101,6 +120,22 @@ Schema (defaults shown; fields without a default are required)::
         home: null                    # joint positions (rad), one per arm joint within the URDF
                                       # limits; default per model, out of the camera's view of
                                       # a table in front of the arm
+    targets:                          # optional list of named markers fiducials detect (core/targets.py)
+      - name: target_1                # required, unique scene name
+        position: [1.0, 1.0]          # required, x y (m); the footprint must lie inside world.bounds
+        radius: 0.05                  # m, (0, 1]: an upright cylinder with a collision shape
+        height: 0.3                   # m, (0, 5]
+        mass: 0.0                     # kg, [0, 1000]; 0 = static, > 0 = dynamic (can be pushed)
+        color: [0.05, 0.05, 0.05]     # r g b in [0, 1]
+    movable_boxes:                    # optional list of dynamic boxes robots push (core/movable_boxes.py)
+      - name: box_1                   # required, unique scene name
+        center: [0.5, 0.0]            # required, x y (m); the box must lie inside world.bounds
+        size: [0.4, 0.4]              # sx sy (m), each in (0, 10]
+        height: 0.3                   # m, (0, 5]
+        mass: 2.0                     # kg, (0, 1000]
+        friction: 0.5                 # box-ground Coulomb coefficient, [0, 10]
+        yaw: 0.0                      # rad
+        color: [0.55, 0.3, 0.7]       # r g b in [0, 1]
 
 Any other top-level key must be a section registered with
 :func:`register_section` (later work adds arms, cubes, sensors that way without
@@ -109,7 +144,7 @@ sections; ``walls`` is reserved when the world has walls.
 
 Segmentation labels: 0 is the background (ground), the walls (if any) get 1,
 then entities follow in section registration order (mobile_robots, obstacles,
-tables, cubes, arms, later kinds) and in file order within a section. A section
+tables, cubes, arms, targets, movable_boxes, later kinds) and in file order within a section. A section
 parser sees the entities of the sections parsed before it in
 ``SectionContext.earlier`` (cubes check the tables under them).
 """
@@ -163,7 +198,7 @@ DEFAULT_PHYSICS_DT = 1.0 / 240.0  # pybullet's own default step
 DEFAULT_BOUNDS = (-3.0, -3.0, 3.0, 3.0)
 TOP_LEVEL_KEYS = ('name', 'seed', 'world', 'camera', 'robot_types')
 #: Modules whose import registers the built-in sections, in label order.
-BUILTIN_SECTION_MODULES = ('.mobile_robot', '.obstacles', '.tabletop', '.arm')
+BUILTIN_SECTION_MODULES = ('.mobile_robot', '.obstacles', '.tabletop', '.arm', '.targets', '.movable_boxes')
 #: Name of the wall entity the scene adds when world.walls is set.
 WALLS_ENTITY_NAME = 'walls'
 
