@@ -4,6 +4,11 @@ For each bag found: print its summary table, write its plots, and write
 ``report.json`` and ``report.md`` into the report directory.  Works without
 the ROS environment (messages are decoded from the bags' own definitions).
 
+Subsystems add plots for their message types as plug-ins: a package lists the modules
+that call ``register_plot`` in its ament index resource ``collab_report_plots`` (one
+module name per line); they are imported before the plots are drawn, when the
+workspace environment is available.
+
 Default report directory: ``<run-dir>/report/`` for a run directory, or
 ``<bag>/../report/<bagname>/`` for a single bag.  With several bags, each
 bag's plots go to a sub-directory named after the bag (relative to the run
@@ -13,6 +18,7 @@ directory), so equal bag names in different sub-directories do not collide.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 from datetime import datetime, timezone
@@ -115,8 +121,37 @@ def _markdown(report: dict) -> str:
     return '\n'.join(lines)
 
 
+PLOT_PLUGIN_RESOURCE = 'collab_report_plots'
+
+
+def load_plot_plugins() -> list[str]:
+    """Import every plot module registered in the ament index; return their names.
+
+    A plug-in that fails to import is reported and skipped: its bags still get the
+    built-in plots.
+    """
+    try:
+        from ament_index_python.packages import get_resource, get_resources
+    except ImportError:  # outside the ROS environment: built-in plots only
+        return []
+    loaded = []
+    for package in sorted(get_resources(PLOT_PLUGIN_RESOURCE)):
+        content, _ = get_resource(PLOT_PLUGIN_RESOURCE, package)
+        for module in (line.strip() for line in content.splitlines()):
+            if not module or module.startswith('#'):
+                continue
+            try:
+                importlib.import_module(module)
+                loaded.append(module)
+            except Exception as error:  # noqa: BLE001 - any plug-in failure is reported, not fatal
+                print(f'report: plot plug-in {module} (package {package}) not loaded: {error}',
+                      file=sys.stderr)
+    return loaded
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    load_plot_plugins()
     source: Path = args.path
     try:
         bags = find_bags(source)

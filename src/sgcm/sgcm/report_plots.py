@@ -1,0 +1,76 @@
+"""scripts/report plot for SGCM bags: the rounds as the leader saw and announced them.
+
+For a bag with /sgcm/guidance: per round, the leader's predicted values v_0^A, v_0^B and
+her planning time, and a timeline of both arms' moves (failed moves and deviations from
+the recommendation marked). Registered through the ament index resource
+``collab_report_plots`` (see collab_tools.report_cli).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use('Agg')
+
+import matplotlib.pyplot as plt  # noqa: E402
+from collab_tools.core.bag_analysis import BagSummary, read_messages  # noqa: E402
+from collab_tools.core.report_plots import register_plot  # noqa: E402
+
+GUIDANCE_TYPE = 'sgcm_interfaces/msg/Guidance'
+
+
+def _move_text(move) -> str:
+    return '-' if move.empty else f'{move.colour} {move.source_cell}->{move.target_cell}'
+
+
+def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
+    guidance, reports, final = [], {}, None
+    for topic, _, msg in read_messages(bag, ['/sgcm/guidance', '/sgcm/follower_report']):
+        if topic == '/sgcm/guidance':
+            if msg.task_complete or msg.status:
+                final = msg
+            else:
+                guidance.append(msg)
+        else:
+            reports[msg.round] = msg
+    if not guidance:
+        return []
+    rounds = [g.round for g in guidance]
+    fig, (values, timing, timeline) = plt.subplots(3, 1, figsize=(9, 9), sharex=True,
+                                                   gridspec_kw={'height_ratios': [2, 1, 2]})
+    if any(g.strategy == 'sgcm' for g in guidance):
+        values.plot(rounds, [g.predicted_leader_value for g in guidance], 'o-', label='v_0^A (leader)')
+        values.plot(rounds, [g.predicted_follower_value for g in guidance], 's--', label='v_0^B (follower)')
+        values.legend(fontsize=8)
+    values.set_ylabel('predicted value')
+    ending = (final.status or 'goal reached') if final else 'no end recorded'
+    values.set_title(f'{guidance[0].strategy}, T={guidance[0].horizon}: {len(rounds)} rounds, {ending}')
+    values.grid(alpha=0.3)
+    timing.bar(rounds, [g.planning_seconds * 1e3 for g in guidance])
+    timing.set_ylabel('planning (ms)')
+    timing.grid(alpha=0.3)
+    for g in guidance:
+        leader = _move_text(g.leader_move) + ('' if g.leader_move_succeeded else ' (failed)')
+        report = reports.get(g.round)
+        if report is None:
+            follower = 'no report'
+        else:
+            follower = _move_text(report.move) + ('' if report.succeeded or report.move.empty else ' (no effect)')
+            if report.deviated:
+                follower += f' [deviated; advised {_move_text(g.recommended_follower_move)}]'
+        timeline.text(g.round, 1.0, leader, ha='center', va='center', fontsize=7, rotation=20)
+        timeline.text(g.round, 0.0, follower, ha='center', va='center', fontsize=7, rotation=20,
+                      color='tab:red' if report is not None and report.deviated else 'black')
+    timeline.set_yticks([0.0, 1.0], ['follower', 'leader'])
+    timeline.set_ylim(-0.7, 1.7)
+    timeline.set_xlabel('round')
+    timeline.set_xticks(rounds)
+    fig.tight_layout()
+    path = Path(out_dir) / 'sgcm_rounds.png'
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+register_plot('sgcm_rounds', {GUIDANCE_TYPE}, plot_sgcm_rounds)
