@@ -113,7 +113,22 @@ def table1_results(outcomes: list[CaseOutcome], task: TaskConfig) -> dict:
                      'planning_seconds': [r.planning_seconds for r in o.sgcm.records]},
             'centralized': {'rounds': o.centralized_rounds},
         })
-    return {'experiment': 'sgcm-table1', 'mode': 'core', 'horizon': task.horizon,
+    def fewer_or_equal_rounds(o):  # a stuck greedy run never finishes: any SGCM count is fewer
+        return o.sgcm.completed and (not o.greedy.completed or o.sgcm.rounds <= o.greedy.rounds)
+
+    acceptance = {
+        'sgcm_completes_every_case': all(o.sgcm.completed for o in outcomes),
+        'greedy_stuck_cases': [o.case for o in outcomes if not o.greedy.completed],
+        'sgcm_never_more_rounds_than_greedy': all(fewer_or_equal_rounds(o) for o in outcomes),
+        'sgcm_utility_at_least_greedy': all(o.sgcm_utility >= o.greedy_utility - 1e-9 for o in outcomes),
+        'centralized_is_a_lower_bound': all(o.centralized_rounds is not None
+                                            and o.centralized_rounds <= o.sgcm.rounds for o in outcomes),
+    }
+    acceptance['passed'] = (acceptance['sgcm_completes_every_case'] and bool(acceptance['greedy_stuck_cases'])
+                            and acceptance['sgcm_never_more_rounds_than_greedy']
+                            and acceptance['sgcm_utility_at_least_greedy']
+                            and acceptance['centralized_is_a_lower_bound'])
+    return {'experiment': 'sgcm-table1', 'mode': 'core', 'horizon': task.horizon, 'acceptance': acceptance,
             'failure_probability': {'leader': task.leader.failure_probability,
                                     'follower': task.follower.failure_probability},
             'utility_accounting': 'sum over SGCM rounds of r(state after round) - both costs',
