@@ -58,6 +58,11 @@ Distinct Requests, Lemma 4.3                 requests (RequestLedger), coalition
 Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task, plan_reply,
                                              local_coalition_solutions, offer, coalition)
 Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
+Sec. V-B-4 / Fig. 9 message delay and loss   link_model (LinkModel, DelayDistribution)
+Agent channel messages                       channel_codec (ChannelCodec, ChannelMessage,
+                                             MessageKind)
+Request-and-wait negotiation, retries        reliable_channel (ReliableChannel, RetryPolicy,
+                                             CommitmentLedger)
 ===========================================  ==================================================
 
 Choices where the paper is silent or ambiguous (each is documented where it is made)
