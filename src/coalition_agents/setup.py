@@ -17,7 +17,8 @@ setup(
     description='Executable coalitions (IQ-ASyMTRe): solution spaces and coalition solutions across robots.',
     license='Apache-2.0',
     entry_points={
-        # The schema_agent node is added later; the core has no executables.
-        'console_scripts': [],
+        'console_scripts': [
+            'schema_agent = coalition_agents.schema_agent_node:main',
+        ],
     },
 )

@@ -17,6 +17,9 @@ setup(
     description='Role engine: E-Map, SDF, initial process roles, GP inference and Group Role Assignment.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'role_engine = role_engine.role_engine_node:main',
+            'role_player = role_engine.role_player_node:main',
+        ],
     },
 )

@@ -16,10 +16,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from rclpy.time import Time
+from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from .camera_input import CameraInput
-from .node_support import ConfigurationError, declare as declare_parameter, run
 from .core.follower_behaviour import Follower, FollowerSettings
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task

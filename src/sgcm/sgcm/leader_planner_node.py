@@ -19,10 +19,10 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
+from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from .camera_input import CameraInput
-from .node_support import ConfigurationError, declare as declare_parameter, run
 from .core.follower_behaviour import greedy_action
 from .core.fse import FSEPlanner
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel

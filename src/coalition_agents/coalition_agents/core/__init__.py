@@ -58,6 +58,9 @@ Distinct Requests, Lemma 4.3                 requests (RequestLedger), coalition
 Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task, plan_reply,
                                              local_coalition_solutions, offer, coalition)
 Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
+Algorithm 2 (one robot, distributed)         agent (SchemaAgent, coalition_cost_from_offers);
+                                             the schema_agent node drives it
+Live sensor reports -> sensed instances      live_sensing (LiveSensing)
 Sec. V-B-4 / Fig. 9 message delay and loss   link_model (LinkModel, DelayDistribution)
 Agent channel messages                       channel_codec (ChannelCodec, ChannelMessage,
                                              MessageKind)

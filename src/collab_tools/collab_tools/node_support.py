@@ -1,4 +1,9 @@
-"""What the two SGCM nodes share: parameter declaration and the main() life cycle."""
+"""What the subsystems' nodes share: parameter declaration and the main() life cycle.
+
+A node class raises :class:`ConfigurationError` from its constructor for a bad parameter
+(exit code 2 with the message), and exposes ``exit_when_done`` and a ``finished`` Future
+when it can end on its own (so an orchestration script can wait for it).
+"""
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor

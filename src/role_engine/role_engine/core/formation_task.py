@@ -1,0 +1,228 @@
+"""The formation task of the role nodes: its settings, the team, the roles and the re-planning step.
+
+Settings file (YAML, e.g. config/roles/formation_demo.yaml; unknown keys are errors)::
+
+    scenario: ../scenarios/roles_formation.yaml  # the bridge scenario (robots, types, colours), relative
+    formation: {type: diamond, center: [0, 0], size: 2.0, rotation: 0.0}
+                                   # circle | square | diamond | line (core/formations.py); the number of
+                                   # points is the number of robots taking part in the negotiation round
+    trajectory: {total_time: 20.0, states: 41}   # s > 0; support states N+1 >= 2
+    grid_resolution: 0.05          # m per cell of the environment built from the camera image, > 0
+    inflation_margin: 0.03         # m added to every robot's radius for the planners' views, >= 0
+    speed_fraction: 0.8            # GP speed limit (Eq. 22) as a share of the type's max speed, (0, 1]
+    gp: {sigma_obs: 0.1, ...}      # GPPlannerConfig fields (core/gp_planner.py) except robot_radius, max_speed
+    qualification_lambda: 1.0      # lambda of Q = lambda F_gp + F_conf (Eq. 13), >= 0
+    start_delay: 2.0               # s between publishing an assignment and the roles' start time, >= 0
+    silence_timeout: 4.0           # s without a process role from a robot before it counts as silent, > 0
+    replan_period: 1.0             # s between re-optimisations of a role player, > 0
+    conflict_horizon: 4.0          # s of the others' roles checked for conflicts (Algorithm 4 line 3), >= 0
+    arrival_tolerance: 0.08        # m from the destination at which a robot has arrived, > 0
+
+Where the paper is silent: when a robot drops out, the remaining robots renegotiate the
+same formation (type, centre, size) with one point per remaining robot, and the silent
+robot, which stops once its commands stop, is a static obstacle for them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from pybullet_bridge.core.fields import Fields, fail, join_path
+
+from .conflict import SharedRole, make_conflict_field
+from .environment import RobotEnvironment, RobotType
+from .errors import RoleEngineError
+from .formations import parse_formation
+from .gp_planner import GPPlanner, GPPlannerConfig
+from .negotiation import Role
+from .qualification import ProcessRoleEvaluation
+from .trajectory import interpolate
+
+TOP_LEVEL_KEYS = ('scenario', 'formation', 'trajectory', 'grid_resolution', 'inflation_margin', 'speed_fraction',
+                  'gp', 'qualification_lambda', 'start_delay', 'silence_timeout', 'replan_period',
+                  'conflict_horizon', 'arrival_tolerance')
+#: GP fields the task sets itself, per robot type.
+GP_FIELDS_SET_HERE = ('robot_radius', 'max_speed')
+
+
+@dataclass(frozen=True)
+class FormationTask:
+    """The validated settings file (see the module docstring)."""
+
+    source: Path
+    scenario: Path
+    formation: dict
+    total_time: float
+    states: int
+    grid_resolution: float
+    inflation_margin: float
+    speed_fraction: float
+    gp: dict
+    qualification_lambda: float
+    start_delay: float
+    silence_timeout: float
+    replan_period: float
+    conflict_horizon: float
+    arrival_tolerance: float
+
+    def roles(self, count: int) -> list[Role]:
+        """The formation's ``count`` destinations as roles ``<type>_<k>``."""
+        spec = dict(self.formation, count=int(count))
+        points = parse_formation(spec, join_path(str(self.source), 'formation'))
+        return [Role(f"{spec['type']}_{k}", (float(x), float(y))) for k, (x, y) in enumerate(points)]
+
+    def gp_config(self, robot_type: RobotType) -> GPPlannerConfig:
+        """GP settings of one robot type: its plans run on its own SDF, so no radius is subtracted."""
+        speed = None if robot_type.max_linear_velocity is None \
+            else self.speed_fraction * robot_type.max_linear_velocity
+        return GPPlannerConfig.from_mapping(dict(self.gp, max_speed=speed),
+                                            join_path(str(self.source), 'gp'))
+
+
+def load_formation_task(path: str | Path) -> FormationTask:
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise fail(where, 'settings file does not exist')
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise fail(where, f'not valid YAML ({error})') from None
+    fields = Fields(data, where, allowed=TOP_LEVEL_KEYS)
+    scenario = (path.parent / fields.string('scenario')).resolve()
+    if not scenario.is_file():
+        raise fail(fields.path_of('scenario'), f"scenario file '{scenario}' does not exist")
+    formation = dict(Fields(fields.raw('formation'), fields.path_of('formation'),
+                            allowed=('type', 'center', 'size', 'diameter', 'side', 'width', 'length',
+                                     'rotation')).data)
+    if 'count' in formation or formation.get('type') == 'points':
+        raise fail(fields.path_of('formation'), 'the count follows from the robots; give type, center, size')
+    trajectory = Fields(fields.raw('trajectory'), fields.path_of('trajectory'), allowed=('total_time', 'states'))
+    gp = dict(Fields(fields.raw('gp', {}), fields.path_of('gp'),
+                     allowed=[name for name in GPPlannerConfig.__dataclass_fields__
+                              if name not in GP_FIELDS_SET_HERE]).data)
+    task = FormationTask(
+        source=path, scenario=scenario, formation=formation,
+        total_time=trajectory.number('total_time', gt=0.0), states=trajectory.integer('states', ge=2),
+        grid_resolution=fields.number('grid_resolution', 0.05, gt=0.0),
+        inflation_margin=fields.number('inflation_margin', 0.03, ge=0.0),
+        speed_fraction=fields.number('speed_fraction', 0.8, gt=0.0, le=1.0), gp=gp,
+        qualification_lambda=fields.number('qualification_lambda', 1.0, ge=0.0),
+        start_delay=fields.number('start_delay', 2.0, ge=0.0),
+        silence_timeout=fields.number('silence_timeout', 4.0, gt=0.0),
+        replan_period=fields.number('replan_period', 1.0, gt=0.0),
+        conflict_horizon=fields.number('conflict_horizon', 4.0, ge=0.0),
+        arrival_tolerance=fields.number('arrival_tolerance', 0.08, gt=0.0))
+    task.roles(1)                                      # validates the formation fields once
+    task.gp_config(RobotType('check', 0.1))            # and the GP fields
+    return task
+
+
+@dataclass(frozen=True)
+class TeamMember:
+    """A robot of the scenario as the role nodes see it."""
+
+    name: str
+    robot_type: RobotType
+    color: tuple[float, float, float]
+    height: float
+
+
+def team_from_scenario(scenario, inflation_margin: float) -> list[TeamMember]:
+    """The scenario's mobile robots (pybullet_bridge Scenario), with the planners' inflation margin."""
+    robots = scenario.sections.get('mobile_robots', [])
+    if not robots:
+        raise RoleEngineError(f'{scenario.source}: mobile_robots: the role nodes need at least one robot')
+    team = []
+    for robot in robots:
+        params = robot.params
+        robot_type = RobotType(params.type_name, float(params.radius), inflation_margin=inflation_margin,
+                               max_linear_velocity=float(params.limits.max_linear_velocity),
+                               max_angular_velocity=float(params.limits.max_angular_velocity))
+        team.append(TeamMember(robot.name, robot_type, tuple(params.color), float(params.height)))
+    return team
+
+
+class SilenceWatch:
+    """Who has not been heard from for ``timeout`` seconds (Algorithm 1's problem detection).
+
+    A robot that was never heard counts from ``expect`` (the time its role was handed out).
+    """
+
+    def __init__(self, timeout: float):
+        if not (math.isfinite(timeout) and timeout > 0):
+            raise RoleEngineError(f'silence_timeout: must be a finite number > 0 s (got {timeout})')
+        self.timeout = float(timeout)
+        self._last: dict[str, float] = {}
+
+    def expect(self, robots, t: float) -> None:
+        self._last = {robot: float(t) for robot in robots}
+
+    def heard(self, robot: str, t: float) -> None:
+        if robot in self._last:
+            self._last[robot] = max(self._last[robot], float(t))
+
+    def silent(self, t: float) -> list[str]:
+        return sorted(robot for robot, last in self._last.items() if t - last > self.timeout)
+
+
+@dataclass
+class Replan:
+    """A re-optimised process role starting at ``start_time`` (or why the old one is kept)."""
+
+    trajectory: np.ndarray | None
+    start_time: float
+    total_time: float
+    conflicting: list[str]
+    reason: str = ''
+
+
+def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnvironment, own: SharedRole,
+                        others: list[SharedRole], now: float, position, *, horizon: float,
+                        min_remaining: float = 1.0) -> Replan:
+    """Algorithm 4 lines 3-6: conflict field from the others' roles, then GP inference from here.
+
+    The remaining part of the own role, resampled from ``now`` with the same number of
+    states, is the warm start; the start state is the tracked ``position`` with the role's
+    velocity at ``now``, the goal the role's destination at rest. With less than
+    ``min_remaining`` seconds left the role is kept (nothing left worth re-optimising).
+    """
+    elapsed = now - own.start_time
+    remaining = own.total_time - elapsed
+    if remaining < min_remaining:
+        return Replan(None, own.start_time, own.total_time, [], 'role nearly over')
+    field = make_conflict_field(robot_env, others, now, own=own, horizon=horizon)
+    count = len(own.trajectory)
+    times = elapsed + np.linspace(0.0, remaining, count)
+    positions, velocities, _ = interpolate(own.trajectory, own.total_time, times)
+    initial = np.hstack([positions, velocities])
+    start = np.concatenate([np.asarray(position, dtype=float), velocities[0]])
+    initial[0] = start
+    goal = np.concatenate([own.trajectory[-1, :2], [0.0, 0.0]])
+    result = GPPlanner(planner_config, field.sdf).plan(initial, remaining, start=start, goal=goal)
+    if not np.isfinite(result.trajectory).all():
+        return Replan(None, own.start_time, own.total_time, field.conflicting, 'GP inference diverged')
+    return Replan(result.trajectory, float(now), float(remaining), field.conflicting)
+
+
+class TypedGPEvaluator:
+    """Evaluator for :func:`.qualification.qualification_matrix`: GP inference with each type's settings.
+
+    Algorithm 3 lines 7-19 as ``experiments.GPProcessRoleEvaluator``, but the speed limit
+    (Eq. 22) depends on the robot type, so there is one planner per type.
+    """
+
+    def __init__(self, task: FormationTask):
+        self.task = task
+        self._planners: dict[str, GPPlanner] = {}
+
+    def __call__(self, agent, role, initial: np.ndarray, robot_env: RobotEnvironment):
+        name = robot_env.robot_type.name
+        if name not in self._planners:
+            self._planners[name] = GPPlanner(self.task.gp_config(robot_env.robot_type), robot_env.sdf)
+        result = self._planners[name].plan(initial, self.task.total_time)
+        return ProcessRoleEvaluation(result.trajectory, result.term_costs['gp_prior'], result.iterations)
