@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from collab_tools.orchestration.node_process import NodeSpec
-from bridge_helpers import bridge_spec, wait_for_subscriber
+from bridge_helpers import bridge_spec
 from coalition_interfaces.msg import AgentMessage, Information
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file, load_costs, load_library, load_tasks
 from coalition_agents.core.live_sensing import LiveSensing
@@ -80,7 +80,10 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
     assert expected is not None
     # A malformed message on the channel (unknown information type) is dropped with a message.
     publisher = session.observer.node.create_publisher(AgentMessage, '/coalition/channel', 10)
-    wait_for_subscriber(publisher)
+    deadline = time.monotonic() + 30.0
+    while publisher.get_subscription_count() < 3:  # every agent, not just the first to match
+        assert time.monotonic() < deadline, 'the agents did not all subscribe to /coalition/channel'
+        time.sleep(0.05)
     publisher.publish(AgentMessage(message_id=1, sender=BYSTANDER, kind=AgentMessage.REQUEST,
                                    label=Information(type='F_Q', referents=['X'])))
     leader = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=45.0,
@@ -101,7 +104,11 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
         log = (session.run_dir / 'logs' / f'schema_agent_{robot}.log').read_text()
         committed = re.findall(r'committed to coalition (\S+)|coalition (\S+) established', log)
         assert len(committed) <= 1, f'{robot} committed twice: {committed}'
-    assert 'dropped malformed channel message' in (session.run_dir / 'logs' / f'schema_agent_{LEADER}.log').read_text()
+    leader_log = session.run_dir / 'logs' / f'schema_agent_{LEADER}.log'
+    deadline = time.monotonic() + 10.0  # the log is written by another process
+    while 'dropped malformed channel message' not in leader_log.read_text():
+        assert time.monotonic() < deadline, 'the malformed message was not reported by the leader'
+        time.sleep(0.1)
     formed = re.search(r'\((\d+\.\d+) s\)', leader.detail)
     print(f'\nloss {loss}: coalition {leader.coalition_id} cost {leader.cost:g} formed after '
           f'{formed.group(1)} sim s (search_time 3 s), {wall:.1f} wall s from start; '
