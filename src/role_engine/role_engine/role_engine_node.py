@@ -61,6 +61,7 @@ class RoleEngine(Node):
         declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
         declare('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml)')
         declare('camera', 'top_camera', 'camera namespace')
+        declare('exit_when_done', False, 'exit once every robot has reached its formation point')
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.task, scenario, self.team = load_settings(p('settings_file'))
         self.members = {m.name: m for m in self.team}
@@ -77,7 +78,7 @@ class RoleEngine(Node):
         self.arrived: set[str] = set()
         self.observations = None
         self.phase = 'negotiate'
-        self.exit_when_done = False
+        self.exit_when_done = bool(self.get_parameter('exit_when_done').value)
         self.finished = Future()
         self.create_timer(0.25, self._tick)
         self.get_logger().info(f"{len(self.team)} robots ({', '.join(self.members)}), formation "
@@ -101,6 +102,8 @@ class RoleEngine(Node):
             self.get_logger().info(f'{msg.robot} arrived at {msg.role_id} ({len(self.arrived)}/{len(self.active)})')
             if self.arrived >= set(self.active):
                 self.get_logger().info(f'round {self.round}: formation complete')
+                if not self.finished.done():
+                    self.finished.set_result(True)
 
     def _tick(self) -> None:
         if self.phase == 'negotiate':
