@@ -61,3 +61,10 @@ def test_records_exact_counts_and_custom_types(session, ros_node, tmp_path):
     assert topics['/test/bodies']['type'] == 'bridge_interfaces/msg/BodyStates'
     latched_qos = topics['/test/latched']['offered_qos_profiles']
     assert 'transient_local' in str(latched_qos)
+
+
+def test_bad_parameter_stops_the_recorder_with_a_message(session, tmp_path):
+    process = session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder',
+                                     parameters=[{'output': str(tmp_path / 'bag'), 'exclude': ['(']}]))
+    assert session.wait_for_exit('bag_recorder', timeout=60.0) == 2
+    assert 'parameter exclude: invalid regular expression' in process.log_path.read_text()

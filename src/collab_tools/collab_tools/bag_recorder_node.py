@@ -10,9 +10,7 @@ New topics are picked up as they appear. The bag is closed on shutdown (SIGINT).
 import re
 import sys
 
-import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
                        ReliabilityPolicy)
@@ -21,6 +19,7 @@ from rosbags.typesys.base import TypesysError
 
 from .core.bag_types import build_typestore
 from .core.bag_writer import BagWriter, QosSpec
+from .node_support import ConfigurationError, run
 from .ros_interfaces import import_interface
 
 RECORD_DEPTH = 100
@@ -47,21 +46,21 @@ class BagRecorder(Node):
         self.declare_parameter('discovery_period', 0.5)
         output = self.get_parameter('output').value
         if not output:
-            raise RecorderConfigError('parameter output: required (directory of the new bag)')
+            raise ConfigurationError('parameter output: required (directory of the new bag)')
         self.topics = [t for t in self.get_parameter('topics').value if t]
         try:
             self.exclude = [re.compile(p) for p in self.get_parameter('exclude').value if p]
         except re.error as error:
-            raise RecorderConfigError(f'parameter exclude: invalid regular expression ({error})')
+            raise ConfigurationError(f'parameter exclude: invalid regular expression ({error})')
         period = self.get_parameter('discovery_period').value
         if not 0.01 <= period <= 60.0:
-            raise RecorderConfigError(f'parameter discovery_period: must be in [0.01, 60] s (got {period})')
+            raise ConfigurationError(f'parameter discovery_period: must be in [0.01, 60] s (got {period})')
 
         self.type_names: set[str] = set()
         try:
             self.writer = BagWriter(output, build_typestore(()))
         except (OSError, ValueError) as error:
-            raise RecorderConfigError(f'parameter output: {error}') from None
+            raise ConfigurationError(f'parameter output: {error}') from None
         self.subscriptions_by_topic = {}
         # Discovery runs on the wall clock: it must not stall while simulated time is paused.
         self.discovery_timer = self.create_timer(period, self._discover,
@@ -108,30 +107,17 @@ class BagRecorder(Node):
             msg_type, topic, on_message, subscription_qos(offered), raw=True)
         self.get_logger().info(f'recording {topic} [{type_name}]')
 
-    def close(self) -> None:
+    def destroy_node(self):
+        # Close the bag on every way out (shutdown, error), before the node goes.
         counts = self.writer.counts()
         self.writer.close()
         self.get_logger().info(
             f'bag closed: {sum(counts.values())} messages on {len(counts)} topics')
+        super().destroy_node()
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = BagRecorder()
-    except RecorderConfigError as error:
-        rclpy.logging.get_logger('bag_recorder').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.close()
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(BagRecorder, 'bag_recorder', args)
 
 
 if __name__ == '__main__':

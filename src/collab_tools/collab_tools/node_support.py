@@ -1,8 +1,9 @@
-"""What the subsystems' nodes share: parameter declaration and the main() life cycle.
+"""What the workspace's nodes share: parameter declaration and the main() life cycle.
 
-A node class raises :class:`ConfigurationError` from its constructor for a bad parameter
-(exit code 2 with the message), and exposes ``exit_when_done`` and a ``finished`` Future
-when it can end on its own (so an orchestration script can wait for it).
+A node class raises :class:`ConfigurationError` (or the error types passed to :func:`run`)
+from its constructor for a bad parameter (exit code 2 with the message). A node that can
+end on its own sets ``exit_when_done`` and a ``finished`` Future, so an orchestration
+script can wait for it; others spin until shutdown.
 """
 
 import rclpy
@@ -21,17 +22,17 @@ def declare(node: Node, name: str, default, description: str):
     node.declare_parameter(name, default, ParameterDescriptor(description=description, dynamic_typing=True))
 
 
-def run(node_class, name: str, args=None) -> int:
-    """Create the node, spin it until its ``finished`` future (exit_when_done) or shutdown."""
+def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], ...] = ()) -> int:
+    """Create the node and spin it until its ``finished`` future (exit_when_done) or shutdown."""
     rclpy.init(args=args)
     try:
         node = node_class()
-    except ConfigurationError as error:
+    except (ConfigurationError, *config_errors) as error:
         rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2
     try:
-        if node.exit_when_done:
+        if getattr(node, 'exit_when_done', False):
             rclpy.spin_until_future_complete(node, node.finished)
             # Give the last messages a moment to reach late subscribers (recorders).
             rclpy.spin_until_future_complete(node, Future(), timeout_sec=0.5)
@@ -39,6 +40,11 @@ def run(node_class, name: str, args=None) -> int:
             rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RuntimeError:  # rclpy's RCLError ("publisher's context is invalid")
+        # SIGINT shuts the context down asynchronously; a timer that is publishing at that
+        # moment fails. Only a live context makes it an error.
+        if rclpy.ok():
+            raise
     finally:
         node.destroy_node()
         rclpy.try_shutdown()

@@ -7,14 +7,13 @@ segment has played it publishes zero commands and `~/done` (latched) = true.
 
 import sys
 
-import rclpy
 from geometry_msgs.msg import Twist
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 
 from .core.drive_plan import PlanError, load_plan
+from .node_support import run
 
 
 class ScriptedDriver(Node):
@@ -63,21 +62,7 @@ class ScriptedDriver(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = ScriptedDriver()
-    except PlanError as error:
-        rclpy.logging.get_logger('scripted_driver').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(ScriptedDriver, 'scripted_driver', args, config_errors=(PlanError,))
 
 
 if __name__ == '__main__':

@@ -11,18 +11,17 @@ import sys
 import time
 
 import numpy as np
-import rclpy
 from bridge_interfaces.msg import BodyLabel, BodyState, BodyStates, LabelLegend, SimulationStatus
 from bridge_interfaces.srv import ResetScenario, StepSimulation
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import CameraInfo, Image
+from collab_tools.node_support import ConfigurationError, run
 from std_srvs.srv import SetBool
 
 from .core.errors import ScenarioError
@@ -36,10 +35,6 @@ MAX_STEPS_PER_REQUEST = 100_000
 # Ticks run at most this far behind wall-clock pacing before the bridge gives up
 # catching up (a slow machine then just runs below the requested real-time factor).
 MAX_CATCH_UP_TICKS = 10
-
-
-class ConfigurationError(ValueError):
-    """A parameter or scenario the bridge cannot start with."""
 
 
 def to_time_msg(seconds: float) -> Time:
@@ -338,26 +333,7 @@ class PybulletBridge(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = PybulletBridge()
-    except ConfigurationError as error:
-        rclpy.logging.get_logger('pybullet_bridge').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except RuntimeError:  # rclpy's RCLError ('publisher's context is invalid')
-        # SIGINT shuts the context down asynchronously; at real_time_factor 0 the tick is
-        # almost always mid-publish when that happens. Only a live context makes it an error.
-        if rclpy.ok():
-            raise
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(PybulletBridge, 'pybullet_bridge', args)
 
 
 if __name__ == '__main__':
