@@ -32,6 +32,7 @@ class CaseOutcome:
     case: str
     sgcm: EpisodeResult
     greedy: EpisodeResult
+    greedy_stage_utilities: list[float]   # over SGCM's rounds, padded (Table I accounting)
     sgcm_utility: float
     greedy_utility: float
     centralized_rounds: int | None
@@ -57,11 +58,10 @@ def run_table1(task: TaskConfig, cases: list[Case], run_dir: Path, log: Log = pr
     outcomes = []
     for index, case in enumerate(cases, start=1):
         sgcm, greedy = episodes(index, case)
-        rounds = sgcm.rounds
-        outcome = CaseOutcome(case.name, sgcm, greedy,
-                              sgcm.utility_over(rounds, _final_reward(model, sgcm)),
-                              greedy.utility_over(rounds, _final_reward(model, greedy)),
-                              central.plan(model.state_of(case)).rounds)
+        greedy_over = greedy.stage_utilities_over(sgcm.rounds, _final_reward(model, greedy))
+        outcome = CaseOutcome(case.name, sgcm, greedy, greedy_over,
+                              sgcm.utility_over(sgcm.rounds, _final_reward(model, sgcm)),
+                              float(sum(greedy_over)), central.plan(model.state_of(case)).rounds)
         outcomes.append(outcome)
         log(f'[sgcm-table1 {index}/{len(cases)}] {case.name}: greedy '
             f'{"completed" if greedy.completed else "stuck"} in {greedy.rounds} rounds, SGCM '
@@ -159,11 +159,9 @@ def _plot_stage_utilities(outcomes: list[CaseOutcome], path: Path) -> None:
 
     fig, axes = _case_grid(plt, len(outcomes))
     for ax, o in zip(axes.flat, outcomes):
-        rounds = o.sgcm.rounds
-        greedy = o.greedy.stage_utilities[:rounds]
-        greedy += [_final_reward_from(o.greedy)] * (rounds - len(greedy))
-        ax.plot(range(1, rounds + 1), o.sgcm.stage_utilities, 'o-', label='SGCM')
-        ax.plot(range(1, rounds + 1), greedy, 's--', label='greedy')
+        rounds = range(1, o.sgcm.rounds + 1)
+        ax.plot(rounds, o.sgcm.stage_utilities, 'o-', label='SGCM')
+        ax.plot(rounds, o.greedy_stage_utilities, 's--', label='greedy')
         ax.set_title(f'{o.case} ({"stuck" if not o.greedy.completed else "both complete"})', fontsize=9)
     axes.flat[0].legend(fontsize=8)
     fig.suptitle('Stage-wise utility, SGCM vs greedy (Fig. 4)')
@@ -184,11 +182,6 @@ def _case_grid(plt, count: int, columns: int = 5):
         ax.set_ylabel('stage-wise utility')
         ax.grid(alpha=0.3)
     return fig, axes
-
-
-def _final_reward_from(episode: EpisodeResult) -> float:
-    # The idle padding of utility_over: r(final state) is the last record's reward.
-    return episode.records[-1].reward if episode.records else 0.0
 
 
 DISTURBANCE_SETTINGS = {

@@ -23,7 +23,7 @@ from .camera_input import CameraInput
 from .core.follower_behaviour import Follower, FollowerSettings
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task
-from .ros_conversions import action_from_msg, counts_from_msg, move_msg
+from .ros_conversions import action_from_msg, counts_from_msg, move_msg, pick_and_place_goal
 
 
 class FollowerExecutor(Node):
@@ -112,14 +112,11 @@ class FollowerExecutor(Node):
         if choice.action == EMPTY:
             self._report(report, True, 'no move')
             return
-        move = self.model.actions[FOLLOWER].move(choice.action)
-        candidates = estimate.objects_in(move.source, move.colour)
-        if not candidates:
-            self._report(report, False, f'no {self.task.colours[move.colour]} object in cell '
-                                        f'{self.task.cell_name(move.source)}: no effect')
+        try:
+            goal = pick_and_place_goal(self.model, FOLLOWER, choice.action, estimate)
+        except ValueError as error:
+            self._report(report, False, f'{error}: no effect')
             return
-        goal = PickAndPlace.Goal(object_name=candidates[0].name, place_region=list(
-            self.task.workspace.cell_region(self.task.rows, self.task.cols, move.target)))
         self.busy = True
         self.arm.send_goal_async(goal).add_done_callback(lambda f: self._on_goal_response(f, report))
 

@@ -27,7 +27,7 @@ from .core.follower_behaviour import greedy_action
 from .core.fse import FSEPlanner
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task
-from .ros_conversions import grid_state_msg, move_msg
+from .ros_conversions import grid_state_msg, move_msg, pick_and_place_goal
 
 STRATEGIES = ('sgcm', 'greedy')
 
@@ -146,15 +146,12 @@ class LeaderPlanner(Node):
         if action == EMPTY:
             self._publish_guidance(succeeded=True)
             return
-        move = self.model.actions[LEADER].move(action)
-        candidates = estimate.objects_in(move.source, move.colour)
-        if not candidates:  # cannot happen for an estimate-feasible move; be explicit anyway
-            self.get_logger().error(f'round {self.round}: no {self.task.colours[move.colour]} cube seen in '
-                                    f'cell {self.task.cell_name(move.source)}')
+        try:
+            goal_msg = pick_and_place_goal(self.model, LEADER, action, estimate)
+        except ValueError as error:  # cannot happen for an estimate-feasible move; be explicit anyway
+            self.get_logger().error(f'round {self.round}: {error}')
             self._publish_guidance(succeeded=False)
             return
-        goal_msg = PickAndPlace.Goal(object_name=candidates[0].name, place_region=list(
-            self.task.workspace.cell_region(self.task.rows, self.task.cols, move.target)))
         self.phase = 'executing'
         future = self.arm.send_goal_async(goal_msg)
         future.add_done_callback(self._on_goal_response)

@@ -6,8 +6,10 @@ nodes can log and drop a malformed message instead of crashing.
 from __future__ import annotations
 
 import numpy as np
+from bridge_interfaces.action import PickAndPlace
 from sgcm_interfaces.msg import GridState, Move
 
+from .core.perception import StateEstimate
 from .core.rearrangement import EMPTY, Move as CoreMove, RearrangementModel
 from .core.task_config import TaskConfig
 
@@ -53,3 +55,18 @@ def action_from_msg(model: RearrangementModel, robot: int, msg: Move, field: str
                                                       task.colours.index(msg.colour)))
     except ValueError as error:
         raise ValueError(f'{field}: {error}') from None
+
+
+def pick_and_place_goal(model: RearrangementModel, robot: int, action: int,
+                        estimate: StateEstimate) -> PickAndPlace.Goal:
+    """Goal for the arm: a seen cube of the move's colour from its source into its target cell.
+
+    ValueError when the camera shows no such cube (the move then has no effect).
+    """
+    task = model.task
+    move = model.actions[robot].move(action)
+    candidates = estimate.objects_in(move.source, move.colour)
+    if not candidates:
+        raise ValueError(f'no {task.colours[move.colour]} cube seen in cell {task.cell_name(move.source)}')
+    return PickAndPlace.Goal(object_name=candidates[0].name,
+                             place_region=list(task.workspace.cell_region(task.rows, task.cols, move.target)))

@@ -16,10 +16,11 @@ from collab_tools.orchestration.experiment import ExperimentResult, run_experime
 
 from .core.episode import EpisodeResult
 from .core.follower_behaviour import FollowerSettings
-from .core.rearrangement import EMPTY, FOLLOWER, LEADER, Move, RearrangementModel
+from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
 from .core.round_log import LoggedRound, episode_from_log
 from .core.scenario_builder import build_scenario
 from .core.task_config import Case, TaskConfig
+from .ros_conversions import action_from_msg
 
 GUIDANCE = '/sgcm/guidance'
 REPORT = '/sgcm/follower_report'
@@ -44,13 +45,8 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
 
 
 def episode_from_bag(model: RearrangementModel, bag: Path, method: str) -> EpisodeResult:
-    task = model.task
-
-    def action(robot, move):
-        if move.empty:
-            return EMPTY
-        return model.actions[robot].index_of(Move(move.source_cell, move.target_cell,
-                                                  task.colours.index(move.colour)))
+    def action(robot, move):  # the bag's messages have the same fields as the ROS ones
+        return action_from_msg(model, robot, move)
 
     guidance, reports, final = {}, {}, None
     for topic, _, msg in read_messages(bag, [GUIDANCE, REPORT]):

@@ -60,15 +60,18 @@ class EpisodeResult:
     def stage_utilities(self) -> list[float]:
         return [r.stage_utility for r in self.records]
 
-    def utility_over(self, rounds: int, final_reward: float) -> float:
-        """Sum of the first ``rounds`` stage utilities.
+    def stage_utilities_over(self, rounds: int, final_reward: float) -> list[float]:
+        """The first ``rounds`` stage utilities.
 
         An episode that ended sooner (at the goal, or stuck with both robots idle) is
         padded with idle rounds at its final state, worth ``final_reward`` = r(final state).
         """
         values = self.stage_utilities[:rounds]
-        values = values + [final_reward] * (rounds - len(values))
-        return float(sum(values))
+        return values + [final_reward] * (rounds - len(values))
+
+    def utility_over(self, rounds: int, final_reward: float) -> float:
+        """Sum of :meth:`stage_utilities_over` (Table I's accounting)."""
+        return float(sum(self.stage_utilities_over(rounds, final_reward)))
 
     def to_dict(self) -> dict:
         return {'method': self.method, 'completed': self.completed, 'stuck': self.stuck,
