@@ -19,7 +19,12 @@ MINIMAL = {
 
 def scenario_dict(**overrides) -> dict:
     """A fresh copy of MINIMAL with top-level keys replaced (None deletes a key)."""
-    data = copy.deepcopy(MINIMAL)
+    return with_overrides(MINIMAL, **overrides)
+
+
+def with_overrides(base: dict, **overrides) -> dict:
+    """A fresh copy of a scenario dict with top-level keys replaced (None deletes a key)."""
+    data = copy.deepcopy(base)
     for key, value in overrides.items():
         if value is None:
             data.pop(key, None)

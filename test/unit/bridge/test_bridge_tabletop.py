@@ -1,12 +1,11 @@
 """Tables with cell grids and the cubes on them (the ``tables`` and ``cubes`` sections)."""
-import copy
 from pathlib import Path
 
 import numpy as np
 import pybullet as p
 import pytest
 
-from bridge_core_helpers import SCENARIO_DIR
+from bridge_core_helpers import SCENARIO_DIR, with_overrides
 from pybullet_bridge.core.errors import ScenarioError
 from pybullet_bridge.core.scenario import load_scenario, parse_scenario, registered_sections
 from pybullet_bridge.core.scene import Scene
@@ -27,13 +26,7 @@ BASE = {
 
 
 def tabletop(**overrides) -> dict:
-    data = copy.deepcopy(BASE)
-    for key, value in overrides.items():
-        if value is None:
-            data.pop(key, None)
-        else:
-            data[key] = value
-    return data
+    return with_overrides(BASE, **overrides)
 
 
 def cube(**fields) -> dict:

@@ -1,6 +1,7 @@
 """Static obstacles: boxes, arena walls and occupancy-map images (the ``obstacles`` section)."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -103,6 +104,16 @@ def occupancy_to_rectangles(occupied: np.ndarray) -> list[tuple[int, int, int, i
     return sorted(rectangles)
 
 
+def read_grey_image(image_path: Path, field_path: str) -> np.ndarray:
+    """The occupancy image a map field names, as 8-bit grey; errors start with ``field_path``."""
+    if not image_path.is_file():
+        raise fail(field_path, f"image file '{image_path}' does not exist")
+    grey = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
+    if grey is None:
+        raise fail(field_path, f"cannot read '{image_path}' as an image")
+    return grey
+
+
 def load_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
     """Turn an occupancy image into static boxes ``map_<i>``.
 
@@ -113,12 +124,7 @@ def load_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
     path = ctx.path
     fields = Fields(map_cfg, path, allowed=('image', 'resolution', 'origin', 'occupied_below',
                                             'height', 'color'))
-    image_path = ctx.resolve(fields.string('image'))
-    if not image_path.is_file():
-        raise fail(fields.path_of('image'), f"image file '{image_path}' does not exist")
-    grey = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
-    if grey is None:
-        raise fail(fields.path_of('image'), f"cannot read '{image_path}' as an image")
+    grey = read_grey_image(ctx.resolve(fields.string('image')), fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)
     origin_x, origin_y = fields.vector('origin', 2)
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)

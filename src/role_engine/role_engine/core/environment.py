@@ -22,12 +22,12 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 import yaml
 from scipy import ndimage
 
 from pybullet_bridge.core.fields import Fields, fail
+from pybullet_bridge.core.obstacles import read_grey_image
 
 from .errors import RoleEngineError
 from .grid import GridFrame, image_rows_to_grid
@@ -175,12 +175,7 @@ def load_map_file(path: str | Path) -> Environment:
     except yaml.YAMLError as error:
         raise fail(where, f'not valid YAML ({error})') from None
     fields = Fields(data, where, allowed=MAP_FILE_FIELDS)
-    image_path = path.parent / fields.string('image')
-    if not image_path.is_file():
-        raise fail(fields.path_of('image'), f"image file '{image_path}' does not exist")
-    grey = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
-    if grey is None:
-        raise fail(fields.path_of('image'), f"cannot read '{image_path}' as an image")
+    grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)
     origin = fields.vector('origin', 2)
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)
