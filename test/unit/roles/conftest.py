@@ -14,3 +14,5 @@ if importlib.util.find_spec('role_engine') is None:
     sys.path.insert(0, str(PACKAGE_ROOT))
 if importlib.util.find_spec('pybullet_bridge') is None:
     sys.path.insert(0, str(SRC / 'pybullet_bridge'))
+if importlib.util.find_spec('collab_tools') is None:  # the shared camera model
+    sys.path.insert(0, str(SRC / 'collab_tools'))

@@ -17,6 +17,8 @@ if importlib.util.find_spec('sgcm') is None:
     sys.path.insert(0, str(SRC / 'sgcm'))
 if importlib.util.find_spec('pybullet_bridge') is None:
     sys.path.insert(0, str(SRC / 'pybullet_bridge'))
+if importlib.util.find_spec('collab_tools') is None:  # the shared camera model
+    sys.path.insert(0, str(SRC / 'collab_tools'))
 
 from sgcm.core.rearrangement import RearrangementModel  # noqa: E402  (after the path set-up above)
 from sgcm.core.task_config import load_cases, load_task, parse_case, parse_task  # noqa: E402

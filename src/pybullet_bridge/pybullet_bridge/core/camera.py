@@ -2,7 +2,9 @@
 
 Pixel coordinates follow ROS/OpenCV: (u, v) = (column, row) with integer values
 at pixel centres, so the principal point of the symmetric pybullet frustum is
-((W - 1) / 2, (H - 1) / 2). Image right is world +x, image up is world +y.
+((W - 1) / 2, (H - 1) / 2). Image right is world +x, image up is world +y. Pixel <-> world
+mapping is the workspace's shared model (collab_tools.core.camera_geometry), the one the
+nodes rebuild from CameraInfo and the camera pose.
 """
 from __future__ import annotations
 
@@ -11,12 +13,10 @@ from typing import Callable
 
 import numpy as np
 import pybullet as p
+from collab_tools.core.camera_geometry import LOOKING_DOWN_XYZW, TopViewGeometry
 
 from .scenario import CameraConfig
 
-#: Quaternion (x, y, z, w) of the optical frame (x right, y down, z forward) in
-#: the world when looking down: a half turn about world x.
-LOOKING_DOWN_XYZW = (1.0, 0.0, 0.0, 0.0)
 #: pybullet packs the link index above bit 24 of segmentation values.
 _OBJECT_UID_MASK = (1 << 24) - 1
 
@@ -42,6 +42,7 @@ class TopViewCamera:
             cameraUpVector=[0.0, 1.0, 0.0])
         self._projection = p.computeProjectionMatrixFOV(
             fov=config.fov_deg, aspect=self.width / self.height, nearVal=self.near, farVal=self.far)
+        self.geometry = TopViewGeometry(self.intrinsics(), *self.optical_pose())
 
     def intrinsics(self) -> np.ndarray:
         """3x3 camera matrix K."""
@@ -59,21 +60,13 @@ class TopViewCamera:
 
     def world_to_pixel(self, x: float, y: float, z: float = 0.0) -> tuple[float, float]:
         """Pixel (u, v) where the world point appears."""
-        depth = self.altitude - z
-        if depth <= 0:
-            raise ValueError(f'point at z={z} is not below the camera (altitude {self.altitude})')
-        u = self.cx + self.focal * (x - self.center[0]) / depth
-        v = self.cy - self.focal * (y - self.center[1]) / depth
-        return u, v
+        (u, v), = self.geometry.world_to_pixel(np.array([[x, y]]), z)
+        return float(u), float(v)
 
     def pixel_to_world(self, u: float, v: float, z: float = 0.0) -> tuple[float, float]:
         """World (x, y) on the horizontal plane at height ``z`` seen at pixel (u, v)."""
-        depth = self.altitude - z
-        if depth <= 0:
-            raise ValueError(f'plane z={z} is not below the camera (altitude {self.altitude})')
-        x = self.center[0] + (u - self.cx) * depth / self.focal
-        y = self.center[1] - (v - self.cy) * depth / self.focal
-        return x, y
+        (x, y), = self.geometry.pixel_to_world(np.array([[u, v]]), z)
+        return float(x), float(y)
 
     def ground_footprint(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of the ground area the image covers."""

@@ -19,8 +19,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from collab_tools.core.camera_geometry import TopViewGeometry
+
 from .errors import RoleEngineError
-from .top_view import TopViewGeometry, check_rgb
+from .top_view import check_rgb
 
 
 @dataclass(frozen=True)

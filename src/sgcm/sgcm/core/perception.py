@@ -13,28 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from collab_tools.core.camera_geometry import TopViewGeometry
+
 from .task_config import TaskConfig
-
-
-@dataclass(frozen=True)
-class PinholeView:
-    """What is needed to map pixels to the world for a camera looking straight down."""
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    camera_x: float
-    camera_y: float
-    camera_z: float
-
-    def pixel_to_world(self, u: np.ndarray, v: np.ndarray, z: float) -> tuple[np.ndarray, np.ndarray]:
-        """Image right is world +x, image up is world +y (the bridge's optical frame)."""
-        depth = self.camera_z - z
-        if depth <= 0:
-            raise ValueError(f'plane z={z} is not below the camera (z={self.camera_z})')
-        return (self.camera_x + (np.asarray(u) - self.cx) * depth / self.fx,
-                self.camera_y - (np.asarray(v) - self.cy) * depth / self.fy)
 
 
 @dataclass(frozen=True)
@@ -69,7 +50,7 @@ def classify_colour(mean_rgb: np.ndarray, palette: np.ndarray) -> int:
     return int(np.argmin(np.linalg.norm(chroma(palette) - chroma(mean_rgb), axis=1)))
 
 
-def estimate_state(labels: np.ndarray, rgb: np.ndarray, cube_labels: dict[int, str], view: PinholeView,
+def estimate_state(labels: np.ndarray, rgb: np.ndarray, cube_labels: dict[int, str], view: TopViewGeometry,
                    task: TaskConfig, top_height: float, min_pixels: int = 4) -> StateEstimate:
     """Counts per cell and colour of the cubes seen in one labelled frame."""
     labels = np.asarray(labels)
@@ -92,7 +73,7 @@ def estimate_state(labels: np.ndarray, rgb: np.ndarray, cube_labels: dict[int, s
             continue  # not visible (or only a sliver): not counted
         n = pixels[label]
         u, v = sum_u[label] / n, sum_v[label] / n
-        x, y = view.pixel_to_world(u, v, top_height)
+        x, y = view.pixel_to_world(np.array([[u, v]]), top_height)[0]
         colour = classify_colour(np.array([s[label] / n for s in colour_sums]), palette)
         cell = task.workspace.cell_of_point(task.rows, task.cols, float(x), float(y))
         if cell is not None:

@@ -1,0 +1,102 @@
+"""The bridge's top-view camera as a node sees it: the newest frame and its geometry.
+
+Subscribes to the camera's latched topics (``/<camera>/image_raw``, ``camera_info``,
+``pose`` and, when asked, the per-pixel ``labels`` image and ``label_legend``), keeps the
+newest of each and turns them into numpy images and a
+:class:`~collab_tools.core.camera_geometry.TopViewGeometry`. A frame is complete when the
+RGB image, intrinsics and pose are there and, with labels, the label image carries the
+same stamp as the RGB one.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from bridge_interfaces.msg import LabelLegend
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.time import Time
+from sensor_msgs.msg import CameraInfo, Image
+
+from .core.camera_geometry import TopViewGeometry
+from .images import image_array
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+class TopCamera:
+    def __init__(self, node: Node, camera: str = 'top_camera', *, with_labels: bool = False,
+                 on_frame: Callable[[], None] | None = None):
+        self._rgb: Image | None = None
+        self._labels: Image | None = None
+        self._info: CameraInfo | None = None
+        self._pose: PoseStamped | None = None
+        self._geometry: TopViewGeometry | None = None
+        self._with_labels = with_labels
+        self._on_frame = on_frame
+        #: label -> (entity name, kind) from the legend (with_labels only)
+        self.legend: dict[int, tuple[str, str]] = {}
+        ns = '/' + camera.strip('/')
+        node.create_subscription(Image, f'{ns}/image_raw', self._on_rgb, LATCHED)
+        node.create_subscription(CameraInfo, f'{ns}/camera_info', self._on_info, LATCHED)
+        node.create_subscription(PoseStamped, f'{ns}/pose', self._on_pose, LATCHED)
+        if with_labels:
+            node.create_subscription(Image, f'{ns}/labels', self._on_labels, LATCHED)
+            node.create_subscription(LabelLegend, f'{ns}/label_legend', self._on_legend, LATCHED)
+
+    def _on_rgb(self, msg: Image) -> None:
+        self._rgb = msg
+        self._notify()
+
+    def _on_labels(self, msg: Image) -> None:
+        self._labels = msg
+        self._notify()
+
+    def _on_info(self, msg: CameraInfo) -> None:
+        self._info, self._geometry = msg, None
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        self._pose, self._geometry = msg, None
+
+    def _on_legend(self, msg: LabelLegend) -> None:
+        self.legend = {entry.label: (entry.name, entry.kind) for entry in msg.entries}
+
+    def _notify(self) -> None:
+        if self._on_frame is not None and self.frame_time() is not None:
+            self._on_frame()
+
+    def frame_time(self) -> Time | None:
+        """Stamp of the newest complete frame, None while there is none."""
+        if self._rgb is None or self._info is None or self._pose is None:
+            return None
+        if self._with_labels and (self._labels is None or self._labels.header.stamp != self._rgb.header.stamp):
+            return None
+        return Time.from_msg(self._rgb.header.stamp)
+
+    def ready(self) -> bool:
+        return self.frame_time() is not None
+
+    def geometry(self) -> TopViewGeometry:
+        """The camera model from the latest intrinsics and pose (ValueError before they arrive)."""
+        if self._info is None or self._pose is None:
+            raise ValueError('no camera_info and pose yet')
+        if self._geometry is None:
+            p, q = self._pose.pose.position, self._pose.pose.orientation
+            self._geometry = TopViewGeometry.from_camera_info(self._info.k, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        return self._geometry
+
+    def frame(self) -> tuple[Time, np.ndarray]:
+        """Stamp and RGB array of the newest complete frame; ValueError if it cannot be used."""
+        stamp = self.frame_time()
+        if stamp is None:
+            raise ValueError('no complete camera frame yet')
+        return stamp, image_array(self._rgb)
+
+    def labels(self) -> np.ndarray:
+        """Label image of the newest complete frame (with_labels only); ValueError if it cannot be used."""
+        if not self._with_labels:
+            raise ValueError('this TopCamera was created without labels')
+        if self.frame_time() is None:
+            raise ValueError('no complete camera frame yet')
+        return image_array(self._labels)
