@@ -2,7 +2,10 @@
 
 The nodes see the robots only through the top-view camera (colour tracking); the test
 checks against the bridge's ground truth: every robot ends at its assigned formation
-point, and no two robot discs ever overlap.
+point, and no two robot discs ever overlap. A stopped role player makes the engine
+renegotiate and the other three still complete a formation; a malformed process role on
+the channel is dropped with a log line; bad parameters stop a node with exit code 2 and a
+message naming the parameter or field.
 """
 
 import itertools
@@ -11,7 +14,9 @@ import threading
 import time
 
 import pytest
+import yaml
 from bridge_interfaces.msg import BodyStates
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from role_interfaces.msg import ProcessRole, RoleAssignment
 
 from collab_tools.orchestration.node_process import NodeSpec
@@ -67,30 +72,29 @@ def start_nodes(session, settings_file, robots=ROBOTS):
     return task
 
 
-def test_role_players_form_the_diamond_without_collision(session, settings_file):
-    task = start_nodes(session, settings_file)
+def watch_ground_truth_and_arrivals(session, task):
     scenario = load_scenario(task.scenario)
     radii = {r.name: r.params.radius for r in scenario.sections['mobile_robots']}
     truth = GroundTruthLog(session.observer.node, radii)
-    arrived = set()
+    arrived = set()                                     # (round, robot)
     session.observer.node.create_subscription(
-        ProcessRole, '/roles/channel', lambda m: m.arrived and arrived.add(m.robot), 50)
-    assignment = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
-                                          timeout=60, latched=True)
-    assert assignment.status == 'assigned', assignment.message
-    assert sorted(assignment.robots) == sorted(ROBOTS)
-    assert len(set(assignment.role_ids)) == 4
+        ProcessRole, '/roles/channel', lambda m: m.arrived and arrived.add((m.round, m.robot)), 50)
+    return truth, arrived
+
+
+def assert_formation_completed(truth, arrived, assignment, timeout):
+    """Every robot of ``assignment`` reports arrival; ground truth: at its point, never touching another."""
+    expected = {(assignment.round, robot) for robot in assignment.robots}
     began = time.monotonic()
-    deadline = began + 100.0
-    while arrived != set(ROBOTS) and time.monotonic() < deadline:
+    while not expected <= arrived and time.monotonic() < began + timeout:
         time.sleep(0.5)
     wall = time.monotonic() - began
-    assert arrived == set(ROBOTS), f'only {sorted(arrived)} arrived within {wall:.0f} s'
+    assert expected <= arrived, f'only {sorted(arrived & expected)} arrived within {wall:.0f} s'
     time.sleep(1.0)
     with truth.lock:
         final, min_gap, closest, samples = dict(truth.latest), truth.min_gap, truth.closest, truth.samples
-    print(f'formation formed {wall:.1f} s (wall) after the assignment; min gap between robot discs '
-          f'{min_gap:.3f} m ({closest}), {samples} ground-truth samples')
+    print(f'round {assignment.round}: formation formed {wall:.1f} s (wall) after the assignment; min gap '
+          f'between robot discs {min_gap:.3f} m ({closest}), {samples} ground-truth samples')
     assert samples > 100
     for robot, x, y in zip(assignment.robots, assignment.goal_x, assignment.goal_y):
         error = math.dist(final[robot], (x, y))
@@ -98,8 +102,39 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file)
     assert min_gap > 0.0, f'{closest} collided (gap {min_gap:.3f} m)'
 
 
+def test_role_players_form_the_diamond_without_collision(session, settings_file):
+    began = time.monotonic()
+    task = start_nodes(session, settings_file)
+    truth, arrived = watch_ground_truth_and_arrivals(session, task)
+    assignment = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
+                                          timeout=60, latched=True)
+    assert assignment.status == 'assigned', assignment.message
+    assert sorted(assignment.robots) == sorted(ROBOTS)
+    assert len(set(assignment.role_ids)) == 4
+    # A malformed process role of this round (x and y of different lengths) is dropped by the
+    # engine and the other players with a log line; nobody crashes and the formation completes.
+    channel = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    publisher = session.observer.node.create_publisher(ProcessRole, '/roles/channel', channel)
+    deadline = time.monotonic() + 20.0                  # the engine, four players and our own watcher
+    while publisher.get_subscription_count() < len(ROBOTS) + 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert publisher.get_subscription_count() >= len(ROBOTS) + 2
+    publisher.publish(ProcessRole(robot='pioneer_1', role_id='diamond_0', round=assignment.round, version=99,
+                                  start_time=0.0, dt=0.5, radius=0.2, x=[0.0, 1.0, 2.0], y=[0.0], vx=[0.0],
+                                  vy=[0.0]))
+    assert_formation_completed(truth, arrived, assignment, timeout=100.0)
+    logs = session.run_dir / 'logs'
+    for node in ('role_engine', 'role_player_burger_1'):
+        log = (logs / f'{node}.log').read_text()
+        assert "dropped malformed process role: process role of 'pioneer_1': x, y, vx, vy must have one " \
+               'equal length' in log, node
+    print(f'diamond test took {time.monotonic() - began:.0f} s (wall)')
+
+
 def test_role_engine_renegotiates_when_a_role_player_stops(session, settings_file):
-    start_nodes(session, settings_file)
+    began = time.monotonic()
+    task = start_nodes(session, settings_file)
+    truth, arrived = watch_ground_truth_and_arrivals(session, task)
     first = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
                                      timeout=60, latched=True)
     assert first.status == 'assigned', first.message
@@ -113,3 +148,43 @@ def test_role_engine_renegotiates_when_a_role_player_stops(session, settings_fil
     assert 'burger_2' not in second.robots and sorted(second.robots) == ['burger_1', 'pioneer_1', 'pioneer_2']
     assert second.excluded_robots == ['burger_2']
     assert 'burger_2 went silent' in second.message
+    # The remaining three complete a formation (the stopped robot is an obstacle for them).
+    assert_formation_completed(truth, arrived, second, timeout=120.0)
+    print(f'renegotiation test took {time.monotonic() - began:.0f} s (wall)')
+
+
+def bad_settings(tmp_path, config_dir, edit):
+    data = yaml.safe_load((config_dir / 'roles' / 'formation_demo.yaml').read_text())
+    data['scenario'] = str(config_dir / 'scenarios' / 'roles_formation.yaml')
+    for key, value in edit.items():
+        section, _, field = key.partition('.')
+        if field:
+            data[section][field] = value
+        else:
+            data[key] = value
+    path = tmp_path / 'settings.yaml'
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize('executable, parameters, edit, expected', [
+    ('role_engine', {}, None, 'parameter settings_file: required'),
+    ('role_engine', {'settings_file': 'missing.yaml'}, None, 'parameter settings_file: missing.yaml: settings file '
+                                                               'does not exist'),
+    ('role_engine', {'exit_when_done': 'yes'}, {}, 'parameter exit_when_done: must be true or false'),
+    ('role_engine', {}, {'silence_timeout': -1.0}, 'silence_timeout'),
+    ('role_engine', {}, {'problem_detection.stuck_time': 0.0}, 'problem_detection.stuck_time'),
+    ('role_player', {'robot': 'pioneer_9'}, {}, 'parameter robot: must be one of pioneer_1, pioneer_2'),
+    ('role_player', {'robot': 'burger_1'}, {'robot_avoidance.sigma': 'stiff'}, 'robot_avoidance.sigma'),
+    ('role_player', {'robot': 'burger_1'}, {'trajectory.states': 1}, 'trajectory.states'),
+])
+def test_bad_parameters_stop_the_node_with_a_message(session, tmp_path, config_dir, executable, parameters, edit,
+                                                     expected):
+    parameters = dict(parameters)
+    if edit is not None:
+        parameters['settings_file'] = str(bad_settings(tmp_path, config_dir, edit))
+    process = session.start(NodeSpec('role_engine', executable, name=executable, parameters=[parameters]))
+    assert session.wait_for_exit(executable, timeout=60.0) == 2
+    log = process.log_path.read_text()
+    assert expected in log
+    assert 'Traceback' not in log

@@ -4,10 +4,14 @@ Waits for a camera frame in which every robot of the scenario is found by colour
 tracking, builds the environment from that image (robots are not obstacles), negotiates,
 evaluates by GP inference and assigns the formation's roles by GRA (core.central), then
 publishes the assignment on /roles/assignment (latched) and the initial process roles on
-/roles/channel. It watches the channel: a robot whose role player has published no
-process role for ``silence_timeout`` seconds is excluded and the remaining robots
-renegotiate from their tracked positions (the silent robot is then an obstacle as the
-camera sees it); when that is not workable the assignment says ``infeasible`` and why.
+/roles/channel. It watches the channel and the camera (core.problems.ProblemWatch): a
+robot that is silent (no process role for ``silence_timeout`` s), stuck or far off its role
+is excluded and the remaining robots renegotiate from their tracked positions (the
+excluded robot is then an obstacle as the camera sees it). When that is not negotiable
+(fewer usable robots than ``min_robots``, or no feasible assignment) the assignment says
+``aborted`` and why, and the node exits if ``exit_when_done``. A first negotiation that
+finds no workable assignment says ``infeasible``. A malformed process role on the channel
+is dropped with a log line.
 """
 from __future__ import annotations
 
@@ -21,16 +25,17 @@ from role_interfaces.msg import ProcessRole, RoleAssignment
 
 from pybullet_bridge.core.scenario import load_scenario
 from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools.top_camera import TopCamera
 
-from .camera_view import CameraView
 from .core.central import plan_roles
 from .core.errors import RoleEngineError
-from .core.formation_task import SilenceWatch, TypedGPEvaluator, load_formation_task, team_from_scenario
+from .core.formation_task import TypedGPEvaluator, load_formation_task, team_from_scenario
 from .core.grid import GridFrame
 from .core.negotiation import Agent
+from .core.problems import ProblemWatch
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
-from .role_messages import process_role_msg
+from .role_messages import process_role_msg, shared_role
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 CHANNEL = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -48,13 +53,6 @@ def load_settings(path: str):
         raise ConfigurationError(f'parameter settings_file: {error}') from None
 
 
-def arena_grid(bounds, resolution: float) -> GridFrame:
-    """The planning grid over the scenario's world bounds."""
-    xmin, ymin, xmax, ymax = bounds
-    return GridFrame(resolution, (xmin, ymin), (int(round((ymax - ymin) / resolution)),
-                                                int(round((xmax - xmin) / resolution))))
-
-
 class RoleEngine(Node):
     def __init__(self):
         super().__init__('role_engine')
@@ -64,21 +62,26 @@ class RoleEngine(Node):
         declare('exit_when_done', False, 'exit once every robot has reached its formation point')
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.task, scenario, self.team = load_settings(p('settings_file'))
+        if not isinstance(p('camera'), str) or not p('camera'):
+            raise ConfigurationError(f"parameter camera: must be a non-empty namespace (got {p('camera')!r})")
         self.members = {m.name: m for m in self.team}
-        self.frame = arena_grid(scenario.world.bounds, self.task.grid_resolution)
+        self.frame = GridFrame.covering(scenario.world.bounds, self.task.grid_resolution)
         self.targets = [TrackedTarget(m.name, m.color, m.robot_type.radius, m.height) for m in self.team]
-        self.camera = CameraView(self, p('camera'))
+        self.camera = TopCamera(self, p('camera'))
         self.assignment_pub = self.create_publisher(RoleAssignment, '/roles/assignment', LATCHED)
         self.channel_pub = self.create_publisher(ProcessRole, '/roles/channel', CHANNEL)
         self.create_subscription(ProcessRole, '/roles/channel', self._on_role, CHANNEL)
-        self.watch = SilenceWatch(self.task.silence_timeout)
+        self.watch = ProblemWatch(self.task.problem_detection)
         self.round = 0
         self.active: list[str] = []          # robots of the current round
         self.excluded: list[str] = []
         self.arrived: set[str] = set()
         self.observations = None
         self.phase = 'negotiate'
-        self.exit_when_done = bool(self.get_parameter('exit_when_done').value)
+        self.pending_why = 'initial negotiation'
+        self.exit_when_done = p('exit_when_done')
+        if not isinstance(self.exit_when_done, bool):
+            raise ConfigurationError(f'parameter exit_when_done: must be true or false (got {self.exit_when_done!r})')
         self.finished = Future()
         self.create_timer(0.25, self._tick)
         self.get_logger().info(f"{len(self.team)} robots ({', '.join(self.members)}), formation "
@@ -96,26 +99,52 @@ class RoleEngine(Node):
     def _on_role(self, msg: ProcessRole) -> None:
         if msg.round != self.round or msg.version == 0 or msg.robot not in self.active:
             return  # the engine's own initial roles, or a role of an earlier round
-        self.watch.heard(msg.robot, self._now())
+        try:
+            role = shared_role(msg)
+        except (ValueError, RoleEngineError) as error:
+            self.get_logger().error(f'dropped malformed process role: {error}')
+            return
+        self.watch.heard(msg.robot, self._now(), role, arrived=msg.arrived)
         if msg.arrived and msg.robot not in self.arrived:
             self.arrived.add(msg.robot)
             self.get_logger().info(f'{msg.robot} arrived at {msg.role_id} ({len(self.arrived)}/{len(self.active)})')
             if self.arrived >= set(self.active):
                 self.get_logger().info(f'round {self.round}: formation complete')
-                if not self.finished.done():
-                    self.finished.set_result(True)
+                self._finish()
+
+    def _finish(self) -> None:
+        if self.exit_when_done and not self.finished.done():
+            self.finished.set_result(True)
 
     def _tick(self) -> None:
         if self.phase == 'negotiate':
-            self._negotiate()
+            self._negotiate(self.pending_why)
         elif self.phase == 'watch':
-            silent = [r for r in self.watch.silent(self._now()) if r in self.active]
-            if silent:
-                self.get_logger().warn(f"round {self.round}: no process role from {', '.join(silent)} for "
-                                       f'{self.task.silence_timeout:.1f} s; renegotiating without them')
-                self.excluded.extend(silent)
+            self._observe()
+            problems = [p for p in self.watch.problems(self._now()) if p.robot in self.active]
+            if problems:
+                why = '; '.join(str(p) for p in problems)
+                self.get_logger().warn(f'round {self.round}: {why}; renegotiating without them')
+                self.excluded.extend(p.robot for p in problems)
                 self.phase = 'negotiate'
-                self._negotiate(f"{', '.join(silent)} went silent")
+                self.pending_why = why
+                self._negotiate(why)
+
+    def _observe(self) -> None:
+        """Feed the camera-tracked positions of the round's robots to the problem watch."""
+        if not self.camera.ready():
+            return
+        try:
+            stamp, _ = self.camera.frame()
+            self._track()
+        except (ValueError, RoleEngineError) as error:
+            self.get_logger().warn(f'cannot use the camera frame: {error}', throttle_duration_sec=5.0)
+            return
+        t = stamp.nanoseconds * 1e-9
+        for robot in self.active:
+            observation = self.observations.get(robot)
+            if observation is not None and observation.found:
+                self.watch.observed(robot, t, observation.position)
 
     def _negotiate(self, why: str = 'initial negotiation') -> None:
         if not self.camera.ready():
@@ -126,6 +155,10 @@ class RoleEngine(Node):
             self.get_logger().warn(f'cannot use the camera frame: {error}', throttle_duration_sec=5.0)
             return
         robots = [m for m in self.team if m.name not in self.excluded]
+        if self.round > 0 and len(robots) < self.task.min_robots:
+            self._abort(f'{why}: {len(robots)} usable robot(s) left, the formation needs min_robots = '
+                        f'{self.task.min_robots}')
+            return
         missing = [m.name for m in robots if not self.observations[m.name].found]
         if missing:
             self.get_logger().warn(f"not seen on the camera image: {', '.join(missing)}", throttle_duration_sec=5.0)
@@ -147,11 +180,12 @@ class RoleEngine(Node):
             self.get_logger().error(f'round {self.round}: {error}')
         msg = RoleAssignment(round=self.round, excluded_robots=list(self.excluded))
         if plan is None or not plan.feasible:
-            msg.status = 'infeasible'
+            # A renegotiation after a problem that finds no assignment aborts the task.
+            msg.status = 'infeasible' if self.round == 1 else 'aborted'
             msg.message = f'{why}: ' + (plan.reason if plan is not None else 'no robot left to assign')
             self.active = []
             self.phase = 'done'
-            self.get_logger().error(f'round {self.round}: {msg.message}')
+            self.get_logger().error(f'round {self.round}: {msg.status}: {msg.message}')
         else:
             start_time = self._now() + self.task.start_delay
             destinations = {r.name: r.destination for r in roles}
@@ -168,7 +202,7 @@ class RoleEngine(Node):
                 msg.initial_roles.append(role)
             self.active = list(msg.robots)
             self.arrived = set()
-            self.watch.expect(self.active, start_time)
+            self.watch.expect({r.robot: shared_role(r) for r in msg.initial_roles})
             self.phase = 'watch'
             self.get_logger().info(f'round {self.round} ({why}): ' + ', '.join(
                 f'{r}->{j}' for r, j in zip(msg.robots, msg.role_ids)) + f' (planned in {time.perf_counter() - began:.1f} s wall)')
@@ -176,6 +210,19 @@ class RoleEngine(Node):
         self.assignment_pub.publish(msg)
         for role in msg.initial_roles:
             self.channel_pub.publish(role)
+        if msg.status != 'assigned':
+            self._finish()
+
+    def _abort(self, why: str) -> None:
+        """Not negotiable: publish an 'aborted' assignment naming why, and stop watching."""
+        self.round += 1
+        self.active = []
+        self.phase = 'done'
+        msg = RoleAssignment(round=self.round, excluded_robots=list(self.excluded), status='aborted', message=why)
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.assignment_pub.publish(msg)
+        self.get_logger().error(f'round {self.round}: aborted: {why}')
+        self._finish()
 
 
 def main(args=None) -> int:

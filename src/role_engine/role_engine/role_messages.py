@@ -28,5 +28,14 @@ def trajectory_of(msg: ProcessRole) -> np.ndarray:
 
 
 def shared_role(msg: ProcessRole) -> SharedRole:
+    """The message as a SharedRole; ValueError naming the field when it is malformed."""
+    if not msg.robot:
+        raise ValueError('process role: robot must be a non-empty name')
     states = trajectory_of(msg)
+    if not np.isfinite(states).all():
+        raise ValueError(f'process role of {msg.robot!r}: x, y, vx, vy must be finite')
+    if not (np.isfinite(msg.radius) and msg.radius >= 0):
+        raise ValueError(f'process role of {msg.robot!r}: radius must be finite and >= 0 (got {msg.radius})')
+    if not np.isfinite(msg.start_time):
+        raise ValueError(f'process role of {msg.robot!r}: start_time must be finite (got {msg.start_time})')
     return SharedRole(msg.robot, states, msg.dt * (len(states) - 1), msg.radius, msg.start_time)

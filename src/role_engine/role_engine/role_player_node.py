@@ -3,11 +3,13 @@
 Hears the assignment (/roles/assignment) and the others' process roles (/roles/channel),
 tracks its own robot by colour on the top-view camera, and drives it along its process
 role with the core controller (/<robot>/cmd_vel, at the camera rate). Every
-``replan_period`` it builds the conflict field of the others' roles, re-optimises the rest
-of its role by GP inference (warm start: the remaining part of the current role) and
-publishes it on the channel; that message is also its heartbeat, so it is published
+``replan_period`` it re-optimises the rest of its role by GP inference with the others'
+roles as time-indexed moving obstacles (core.role_playing: warm start from the remaining
+part of the current role, detours when a head-on conflict remains) and publishes it on the
+channel; that message is also its heartbeat, so it is published
 every period even when the role is kept. At the destination it stops and says so
-(``arrived``). A robot left out of the assignment stops.
+(``arrived``). A robot left out of the assignment, or of an aborted one, stops. A
+malformed process role on the channel is dropped with a log line.
 """
 from __future__ import annotations
 
@@ -20,15 +22,16 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from role_interfaces.msg import ProcessRole, RoleAssignment
 
 from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools.top_camera import TopCamera
 
-from .camera_view import CameraView
 from .core.conflict import SharedRole
 from .core.controller import TrajectoryFollower
 from .core.errors import RoleEngineError
 from .core.formation_task import replan_process_role
+from .core.grid import GridFrame
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
-from .role_engine_node import CHANNEL, LATCHED, arena_grid, load_settings
+from .role_engine_node import CHANNEL, LATCHED, load_settings
 from .role_messages import process_role_msg, shared_role, trajectory_of
 
 
@@ -41,10 +44,12 @@ class RolePlayer(Node):
         declare('camera', 'top_camera', 'camera namespace')
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.task, scenario, team = load_settings(p('settings_file'))
-        self.frame = arena_grid(scenario.world.bounds, self.task.grid_resolution)
+        self.frame = GridFrame.covering(scenario.world.bounds, self.task.grid_resolution)
         members = {m.name: m for m in team}
         self.robot = p('robot')
-        if self.robot not in members:
+        if not isinstance(p('camera'), str) or not p('camera'):
+            raise ConfigurationError(f"parameter camera: must be a non-empty namespace (got {p('camera')!r})")
+        if not isinstance(self.robot, str) or self.robot not in members:
             raise ConfigurationError(f"parameter robot: must be one of {', '.join(members)} (got {self.robot!r})")
         self.member = members[self.robot]
         self.robot_env = None                # Env_tau: from the scenario's static obstacles, built lazily
@@ -62,7 +67,7 @@ class RolePlayer(Node):
         self.channel_pub = self.create_publisher(ProcessRole, '/roles/channel', CHANNEL)
         self.create_subscription(RoleAssignment, '/roles/assignment', self._on_assignment, LATCHED)
         self.create_subscription(ProcessRole, '/roles/channel', self._on_role, CHANNEL)
-        self.camera = CameraView(self, p('camera'), on_frame=self._on_frame)
+        self.camera = TopCamera(self, p('camera'), on_frame=self._on_frame)
         self.create_timer(self.task.replan_period, self._replan)
         self.exit_when_done = False
         self.get_logger().info(f'{self.robot} ({self.member.robot_type.name}) ready')
@@ -77,6 +82,7 @@ class RolePlayer(Node):
         self.round = msg.round
         self.others = {}
         self.arrived = False
+        self.robot_env = None                # rebuilt: robots excluded since stand where the camera sees them
         mine = [r for r in msg.initial_roles if r.robot == self.robot]
         if msg.status != 'assigned' or not mine:
             self.role = self.follower = None
@@ -159,7 +165,8 @@ class RolePlayer(Node):
             try:
                 result = replan_process_role(self.task.gp_config(self.member.robot_type), self.robot_env, self.role,
                                              list(self.others.values()), now, self.observation.position,
-                                             horizon=self.task.conflict_horizon)
+                                             horizon=self.task.conflict_horizon,
+                                             avoidance=self.task.robot_avoidance)
             except RoleEngineError as error:
                 self.get_logger().warn(f're-optimisation failed, keeping the role: {error}',
                                        throttle_duration_sec=5.0)

@@ -5,7 +5,7 @@ import pytest
 
 from role_engine.core.conflict import SharedRole
 from role_engine.core.environment import Environment, RobotType
-from role_engine.core.formation_task import SilenceWatch, load_formation_task, replan_process_role
+from role_engine.core.formation_task import load_formation_task, replan_process_role
 from role_engine.core.initial_paths import polyline_trajectory
 
 
@@ -34,16 +34,6 @@ def test_bad_settings_name_the_field(tmp_path, config_dir, edit, message):
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(ValueError, match=message):
         load_formation_task(path)
-
-
-def test_silence_watch_reports_only_robots_not_heard_for_the_timeout():
-    watch = SilenceWatch(4.0)
-    watch.expect(['a', 'b'], 10.0)
-    watch.heard('a', 13.0)
-    watch.heard('stranger', 13.0)
-    assert watch.silent(13.5) == []
-    assert watch.silent(14.5) == ['b']
-    assert watch.silent(17.5) == ['a', 'b']
 
 
 def test_replan_sees_the_crossing_robot_and_keeps_start_goal_and_timing():

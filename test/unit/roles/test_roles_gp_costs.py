@@ -4,8 +4,10 @@ import gtsam
 import numpy as np
 import pytest
 
-from role_engine.core.gp_costs import (GPPriorTerm, InterpolatedObstacleTerm, MovingObstacleTerm, ObstacleTerm,
-                                       StatePriorTerm, VelocityLimitTerm, hinge_loss, query_sdf)
+from role_engine.core.gp_costs import (GPPriorTerm, InterpolatedMovingObstacleTerm, InterpolatedObstacleTerm,
+                                       MovingObstacleTerm, ObstacleTerm, StatePriorTerm, VelocityLimitTerm,
+                                       hinge_loss, query_sdf)
+from role_engine.core.gp_prior import interpolate_states
 from role_engine.core.gp_gtsam import build_graph, values_from_states
 
 from roles_gp_helpers import AnalyticSDF
@@ -138,6 +140,63 @@ def test_moving_obstacle_factor_and_jacobian():
     np.testing.assert_allclose(jac, _numerical_jacobian(term, local, np.arange(3)), atol=1e-7)
 
 
+def _crossing_other(state_count, dt, count):
+    """Another robot moving along x = 1.2 upwards: positions at support times and interpolated instants."""
+    support = np.arange(state_count) * dt
+    instants = InterpolatedMovingObstacleTerm.instants(support, count)
+    where = lambda t: np.column_stack([np.full(len(t), 1.2), 0.2 + 0.15 * t])   # noqa: E731
+    return support, where(support), instants, where(instants)
+
+
+def test_interpolated_moving_obstacle_factor_and_jacobian_match_finite_differences():
+    count, dt, state_count = 3, 0.5, 8
+    support, _, instants, others = _crossing_other(state_count, dt, count)
+    term = InterpolatedMovingObstacleTerm(others, state_count, dt, count, combined_radius=0.3, epsilon=0.1,
+                                          sigma=0.05)
+    rng = np.random.default_rng(4)
+    states = np.column_stack([np.linspace(0.6, 1.8, state_count) + 0.05 * rng.standard_normal(state_count),
+                              np.linspace(0.3, 0.6, state_count), 0.3 * rng.standard_normal((state_count, 2))])
+    ids = np.arange(term.factor_count)
+    local = states[term.state_indices]
+    errors, jac = term.errors(local, ids)
+    # The factors compare the GP-interpolated own position with the other at the same instant.
+    own = interpolate_states(states, dt, count)
+    inner = np.delete(own, np.arange(0, len(own), count + 1), axis=0)[:, :2]
+    distance = np.linalg.norm(inner - others, axis=1) - 0.3
+    np.testing.assert_allclose(errors[:, 0], np.where(distance <= 0.1, 0.1 - distance, 0.0), atol=1e-12)
+    assert np.count_nonzero(errors) >= 3                              # the check below is not vacuous
+    np.testing.assert_allclose(jac, _numerical_jacobian(term, local, ids), atol=1e-6)
+    assert term.uses_velocity and term.uses_position
+    np.testing.assert_allclose(instants[:count], dt * np.arange(1, count + 1) / (count + 1))
+
+
+def test_interpolated_moving_obstacle_sees_robots_passing_between_support_states():
+    # Support states 1 s apart: the other robot is clear of them but crosses the path in between.
+    support = np.array([0.0, 1.0])
+    states = np.array([[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 1.0, 0.0]])
+    others_at_support = np.array([[-1.0, 0.0], [2.0, 0.0]])
+    instants = InterpolatedMovingObstacleTerm.instants(support, 1)     # t = 0.5: both at x = 0.5
+    at_support = MovingObstacleTerm(others_at_support, [0, 1], combined_radius=0.3, epsilon=0.1, sigma=0.1)
+    between = InterpolatedMovingObstacleTerm([[0.5, 0.0]], 2, 1.0, 1, combined_radius=0.3, epsilon=0.1, sigma=0.1)
+    assert instants.tolist() == [0.5]
+    assert at_support.cost(states) == 0.0
+    assert between.cost(states) == pytest.approx(0.5 * (0.4 / 0.1) ** 2)
+
+
+@pytest.mark.parametrize('kwargs, message', [
+    (dict(count=0), 'count: must be an integer >= 1'),
+    (dict(dt=0.0), 'dt: must be finite and > 0'),
+    (dict(positions=np.zeros((2, 2))), r'positions: must have shape \(6, 2\)'),
+    (dict(sigma=-1.0), 'sigma: must be finite and > 0'),
+])
+def test_interpolated_moving_obstacle_term_rejects_bad_input(kwargs, message):
+    arguments = dict(positions=np.zeros((6, 2)), state_count=4, dt=0.5, count=2, combined_radius=0.2,
+                     epsilon=0.1, sigma=0.1)
+    arguments.update(kwargs)
+    with pytest.raises(ValueError, match='moving_obstacles_interpolated.' + message):
+        InterpolatedMovingObstacleTerm(**arguments)
+
+
 def test_moving_obstacles_from_timed_positions_resample_and_hold_the_ends():
     term = MovingObstacleTerm.from_timed_positions(
         times=[1.0, 3.0], positions=[[0.0, 0.0], [2.0, 4.0]], own_times=[0.0, 1.0, 2.0, 3.0, 4.0],
@@ -187,6 +246,8 @@ def _all_terms(state_count, dt):
         InterpolatedObstacleTerm(SDF, state_count, dt, 2, epsilon=0.3, sigma=0.1, robot_radius=0.05),
         VelocityLimitTerm(state_count, max_speed=0.2, sigma=0.05),
         MovingObstacleTerm(others, np.arange(state_count), combined_radius=0.3, epsilon=0.1, sigma=0.2),
+        InterpolatedMovingObstacleTerm(_crossing_other(state_count, dt, 2)[3], state_count, dt, 2,
+                                       combined_radius=0.3, epsilon=0.2, sigma=0.2),
     ]
 
 

@@ -8,6 +8,11 @@ of radius r_i around its role positions) form the conflict area, the gray area o
 For robot j's planner they are obstacles in its configuration space, i.e. grown by j's
 own inflation radius, and added to its map: the result is the new SDF of Algorithm 4.
 
+The role-playing update (:mod:`.role_playing`) uses :func:`find_conflicts` for the same
+comparison but keeps the others *time-indexed* (moving obstacles at the same time) instead
+of adding their discs to a static SDF: a static disc on the other's path blocks a detour at
+every time, also when the other robot is long gone.
+
 Where the paper is silent: without j's own role (``own=None``) every position of the
 others within the horizon counts; times beyond a role's end hold its last position.
 """
@@ -55,14 +60,47 @@ def _check_role(role: SharedRole) -> None:
         raise RoleEngineError(f'shared role {role.name!r}.radius: must be a finite number >= 0 (got {role.radius})')
 
 
-def make_conflict_field(robot_env: RobotEnvironment, others: list[SharedRole], t: float, *,
-                        own: SharedRole | None = None, horizon: float = 3.0, samples: int = 15,
-                        clearance: float = 0.05) -> ConflictField:
-    """Conflict area of the ``others`` around time ``t`` and robot j's SDF with it (module docstring)."""
+@dataclass(frozen=True)
+class RoleConflict:
+    """Another robot's role in conflict with the own one: when they first and last come too close."""
+
+    name: str
+    first_time: float
+    last_time: float
+    min_gap: float          # smallest centre distance minus both radii over the sampled times [m]
+
+
+def check_conflict_window(t: float, horizon: float, samples: int, clearance: float) -> None:
     if not (math.isfinite(t) and math.isfinite(horizon) and horizon >= 0):
         raise RoleEngineError(f'conflict field: t and horizon must be finite, horizon >= 0 (got {t}, {horizon})')
     if samples < 1 or not (math.isfinite(clearance) and clearance >= 0):
         raise RoleEngineError(f'conflict field: samples >= 1 and clearance >= 0 (got {samples}, {clearance})')
+
+
+def find_conflicts(own: SharedRole, others: list[SharedRole], t: float, *, horizon: float = 3.0,
+                   samples: int = 15, clearance: float = 0.05) -> list[RoleConflict]:
+    """The others whose roles come closer to ``own`` than both radii plus ``clearance`` at the same
+    sampled time in ``[t, t + horizon]`` (the comparison of MakeConflictField), earliest first."""
+    check_conflict_window(t, horizon, samples, clearance)
+    for role in others + [own]:
+        _check_role(role)
+    times = t + np.linspace(0.0, horizon, samples + 1)
+    own_positions = own.positions(times)
+    conflicts = []
+    for role in others:
+        gap = np.hypot(*(role.positions(times) - own_positions).T) - role.radius - own.radius
+        close = np.flatnonzero(gap < clearance)
+        if close.size:
+            conflicts.append(RoleConflict(role.name, float(times[close[0]]), float(times[close[-1]]),
+                                          float(gap.min())))
+    return sorted(conflicts, key=lambda c: (c.first_time, c.name))
+
+
+def make_conflict_field(robot_env: RobotEnvironment, others: list[SharedRole], t: float, *,
+                        own: SharedRole | None = None, horizon: float = 3.0, samples: int = 15,
+                        clearance: float = 0.05) -> ConflictField:
+    """Conflict area of the ``others`` around time ``t`` and robot j's SDF with it (module docstring)."""
+    check_conflict_window(t, horizon, samples, clearance)
     for role in others + ([own] if own is not None else []):
         _check_role(role)
     frame = robot_env.frame

@@ -164,6 +164,25 @@ class RobotEnvironment:
         return bool(self.frame.contains_cells(cell)[0] and self.visitable[tuple(cell[0])])
 
 
+def environment_from_scenario(scenario, resolution: float) -> Environment:
+    """The bridge scenario's static boxes rasterised on a grid over ``world.bounds`` (walls = the border).
+
+    A cell is occupied when its centre lies inside a box (yaw respected). What the top-view
+    camera would segment, without its pixel errors.
+    """
+    frame = GridFrame.covering(scenario.world.bounds, resolution)
+    iy, ix = np.mgrid[0:frame.shape[0], 0:frame.shape[1]]
+    centres = frame.cell_to_world(np.column_stack([iy.ravel(), ix.ravel()]))
+    occupied = np.zeros(len(centres), dtype=bool)
+    for box in scenario.sections.get('obstacles', []):
+        c, s = math.cos(box.yaw), math.sin(box.yaw)
+        d = centres - np.asarray(box.center)
+        along, across = d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c
+        occupied |= (np.abs(along) <= box.size[0] / 2.0) & (np.abs(across) <= box.size[1] / 2.0)
+    return Environment(occupied.reshape(frame.shape), resolution, frame.origin, border_is_obstacle=True,
+                       name=scenario.name)
+
+
 def load_map_file(path: str | Path) -> Environment:
     """Read a map YAML (format in the module docstring) and its occupancy image."""
     path = Path(path)

@@ -17,15 +17,21 @@ Settings file (YAML, e.g. config/roles/formation_demo.yaml; unknown keys are err
     replan_period: 1.0             # s between re-optimisations of a role player, > 0
     conflict_horizon: 4.0          # s of the others' roles checked for conflicts (Algorithm 4 line 3), >= 0
     arrival_tolerance: 0.08        # m from the destination at which a robot has arrived, > 0
+    robot_avoidance: {clearance: 0.1, sigma: 0.02, interpolation: 3, detour_scales: [1.0, 2.0]}
+                                   # the others as moving obstacles (core/role_playing.py), optional
+    problem_detection: {stuck_distance: 0.05, stuck_time: 8.0, off_role_distance: 0.6, off_role_grace: 4.0}
+                                   # Algorithm 1's "detect a problem" (core/problems.py), optional
+    min_robots: 2                  # fewer usable robots than this: the engine aborts, >= 1
 
 Where the paper is silent: when a robot drops out, the remaining robots renegotiate the
 same formation (type, centre, size) with one point per remaining robot, and the silent
-robot, which stops once its commands stop, is a static obstacle for them.
+robot, which stops once its commands stop, is a static obstacle for them. The formation
+needs ``min_robots`` robots; with fewer usable ones the task is not negotiable (aborted).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,18 +39,18 @@ import yaml
 
 from pybullet_bridge.core.fields import Fields, fail, join_path
 
-from .conflict import SharedRole, make_conflict_field
 from .environment import RobotEnvironment, RobotType
 from .errors import RoleEngineError
 from .formations import parse_formation
 from .gp_planner import GPPlanner, GPPlannerConfig
 from .negotiation import Role
+from .problems import ProblemSettings
 from .qualification import ProcessRoleEvaluation
-from .trajectory import interpolate
+from .role_playing import AvoidanceSettings, Replan, replan_process_role  # noqa: F401 (re-exported)
 
 TOP_LEVEL_KEYS = ('scenario', 'formation', 'trajectory', 'grid_resolution', 'inflation_margin', 'speed_fraction',
                   'gp', 'qualification_lambda', 'start_delay', 'silence_timeout', 'replan_period',
-                  'conflict_horizon', 'arrival_tolerance')
+                  'conflict_horizon', 'arrival_tolerance', 'robot_avoidance', 'problem_detection', 'min_robots')
 #: GP fields the task sets itself, per robot type.
 GP_FIELDS_SET_HERE = ('robot_radius', 'max_speed')
 
@@ -68,6 +74,9 @@ class FormationTask:
     replan_period: float
     conflict_horizon: float
     arrival_tolerance: float
+    robot_avoidance: AvoidanceSettings = AvoidanceSettings()
+    problem_detection: ProblemSettings | None = None
+    min_robots: int = 2
 
     def roles(self, count: int) -> list[Role]:
         """The formation's ``count`` destinations as roles ``<type>_<k>``."""
@@ -116,7 +125,13 @@ def load_formation_task(path: str | Path) -> FormationTask:
         silence_timeout=fields.number('silence_timeout', 4.0, gt=0.0),
         replan_period=fields.number('replan_period', 1.0, gt=0.0),
         conflict_horizon=fields.number('conflict_horizon', 4.0, ge=0.0),
-        arrival_tolerance=fields.number('arrival_tolerance', 0.08, gt=0.0))
+        arrival_tolerance=fields.number('arrival_tolerance', 0.08, gt=0.0),
+        robot_avoidance=AvoidanceSettings.from_mapping(fields.raw('robot_avoidance', {}),
+                                                       fields.path_of('robot_avoidance')),
+        min_robots=fields.integer('min_robots', 2, ge=1))
+    task = replace(task, problem_detection=ProblemSettings.from_mapping(
+        fields.raw('problem_detection', {}), fields.path_of('problem_detection'),
+        silence_timeout=task.silence_timeout))
     task.roles(1)                                      # validates the formation fields once
     task.gp_config(RobotType('check', 0.1))            # and the GP fields
     return task
@@ -145,68 +160,6 @@ def team_from_scenario(scenario, inflation_margin: float) -> list[TeamMember]:
                                max_angular_velocity=float(params.limits.max_angular_velocity))
         team.append(TeamMember(robot.name, robot_type, tuple(params.color), float(params.height)))
     return team
-
-
-class SilenceWatch:
-    """Who has not been heard from for ``timeout`` seconds (Algorithm 1's problem detection).
-
-    A robot that was never heard counts from ``expect`` (the time its role was handed out).
-    """
-
-    def __init__(self, timeout: float):
-        if not (math.isfinite(timeout) and timeout > 0):
-            raise RoleEngineError(f'silence_timeout: must be a finite number > 0 s (got {timeout})')
-        self.timeout = float(timeout)
-        self._last: dict[str, float] = {}
-
-    def expect(self, robots, t: float) -> None:
-        self._last = {robot: float(t) for robot in robots}
-
-    def heard(self, robot: str, t: float) -> None:
-        if robot in self._last:
-            self._last[robot] = max(self._last[robot], float(t))
-
-    def silent(self, t: float) -> list[str]:
-        return sorted(robot for robot, last in self._last.items() if t - last > self.timeout)
-
-
-@dataclass
-class Replan:
-    """A re-optimised process role starting at ``start_time`` (or why the old one is kept)."""
-
-    trajectory: np.ndarray | None
-    start_time: float
-    total_time: float
-    conflicting: list[str]
-    reason: str = ''
-
-
-def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnvironment, own: SharedRole,
-                        others: list[SharedRole], now: float, position, *, horizon: float,
-                        min_remaining: float = 1.0) -> Replan:
-    """Algorithm 4 lines 3-6: conflict field from the others' roles, then GP inference from here.
-
-    The remaining part of the own role, resampled from ``now`` with the same number of
-    states, is the warm start; the start state is the tracked ``position`` with the role's
-    velocity at ``now``, the goal the role's destination at rest. With less than
-    ``min_remaining`` seconds left the role is kept (nothing left worth re-optimising).
-    """
-    elapsed = now - own.start_time
-    remaining = own.total_time - elapsed
-    if remaining < min_remaining:
-        return Replan(None, own.start_time, own.total_time, [], 'role nearly over')
-    field = make_conflict_field(robot_env, others, now, own=own, horizon=horizon)
-    count = len(own.trajectory)
-    times = elapsed + np.linspace(0.0, remaining, count)
-    positions, velocities, _ = interpolate(own.trajectory, own.total_time, times)
-    initial = np.hstack([positions, velocities])
-    start = np.concatenate([np.asarray(position, dtype=float), velocities[0]])
-    initial[0] = start
-    goal = np.concatenate([own.trajectory[-1, :2], [0.0, 0.0]])
-    result = GPPlanner(planner_config, field.sdf).plan(initial, remaining, start=start, goal=goal)
-    if not np.isfinite(result.trajectory).all():
-        return Replan(None, own.start_time, own.total_time, field.conflicting, 'GP inference diverged')
-    return Replan(result.trajectory, float(now), float(remaining), field.conflicting)
 
 
 class TypedGPEvaluator:

@@ -283,8 +283,7 @@ class MovingObstacleTerm(CostTerm):
     Factor ``j`` ties support state ``state_indices[j]`` to ``positions[j]``, where another
     robot is (or plans to be) at that state's time. The error is the hinge of Eq. 21 on the
     centre distance minus ``combined_radius`` (own radius + other radius) with safety distance
-    ``epsilon``. At exactly coincident centres the push direction is +x (any unit vector
-    would do; the gradient is undefined there).
+    ``epsilon`` (:func:`separation_hinge`).
     """
 
     residual_dim = 1
@@ -298,11 +297,7 @@ class MovingObstacleTerm(CostTerm):
                                   f'(got {positions.shape})')
         if not np.all(np.isfinite(positions)):
             raise RoleEngineError(f'{name}.positions: must be finite')
-        for field, value in (('combined_radius', combined_radius), ('epsilon', epsilon)):
-            if not np.isfinite(value) or value < 0.0:
-                raise RoleEngineError(f'{name}.{field}: must be finite and >= 0 (got {value})')
-        if not np.isfinite(sigma) or sigma <= 0.0:
-            raise RoleEngineError(f'{name}.sigma: must be finite and > 0 (got {sigma})')
+        _check_separation(name, combined_radius, epsilon, sigma)
         self.name = name
         self.positions = positions
         self.state_indices = indices[:, None]
@@ -330,14 +325,86 @@ class MovingObstacleTerm(CostTerm):
         return cls(resampled, np.arange(own_times.size), combined_radius, epsilon, sigma, name)
 
     def errors(self, local_states, factor_ids, with_jacobians=True):
-        offset = local_states[:, 0, :POSITION_DIM] - self.positions[factor_ids]
-        centre_distance = np.linalg.norm(offset, axis=1)
-        cost, slope = hinge_loss(centre_distance - self.combined_radius, self.epsilon)
+        cost, gradient = separation_hinge(local_states[:, 0, :POSITION_DIM] - self.positions[factor_ids],
+                                          self.combined_radius, self.epsilon)
         if not with_jacobians:
             return cost[:, None], None
-        direction = np.tile([1.0, 0.0], (len(factor_ids), 1))
-        apart = centre_distance > 0.0
-        direction[apart] = offset[apart] / centre_distance[apart, None]
         jacobians = np.zeros((len(factor_ids), 1, STATE_DIM))
-        jacobians[:, 0, :POSITION_DIM] = slope[:, None] * direction
+        jacobians[:, 0, :POSITION_DIM] = gradient
         return cost[:, None], jacobians
+
+
+def separation_hinge(offset: np.ndarray, combined_radius: float, epsilon: float) -> tuple[np.ndarray, np.ndarray]:
+    """Hinge (Eq. 21) on the centre distance ``|offset|`` minus ``combined_radius`` and its
+    gradient (n, 2) with respect to the own position (``offset`` = own - other). At exactly
+    coincident centres the push direction is +x (any unit vector would do)."""
+    centre_distance = np.linalg.norm(offset, axis=1)
+    cost, slope = hinge_loss(centre_distance - combined_radius, epsilon)
+    direction = np.tile([1.0, 0.0], (len(offset), 1))
+    apart = centre_distance > 0.0
+    direction[apart] = offset[apart] / centre_distance[apart, None]
+    return cost, slope[:, None] * direction
+
+
+class InterpolatedMovingObstacleTerm(CostTerm):
+    """Another robot as a moving obstacle at ``count`` GP-interpolated instants inside every interval.
+
+    The companion of :class:`MovingObstacleTerm` (as :class:`InterpolatedObstacleTerm` is of
+    :class:`ObstacleTerm`): two robots meeting head-on close at up to twice their speed, so
+    between two support states they could pass *through* each other with every support state
+    clear. Factor ``j`` reads interval ``j // count`` and compares the GP-interpolated own
+    position at ``tau = (j % count + 1) dt / (count + 1)`` (Eq. 17-19, the same interpolation
+    as the obstacle factors) with ``positions[j]``, where the other robot is at that instant.
+    """
+
+    residual_dim = 1
+    uses_velocity = True
+
+    def __init__(self, positions: np.ndarray, state_count: int, dt: float, count: int, combined_radius: float,
+                 epsilon: float, sigma: float, name: str = 'moving_obstacles_interpolated'):
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+            raise RoleEngineError(f'{name}.count: must be an integer >= 1 (got {count!r})')
+        if not np.isfinite(dt) or dt <= 0.0:
+            raise RoleEngineError(f'{name}.dt: must be finite and > 0 (got {dt})')
+        intervals = int(state_count) - 1
+        positions = np.asarray(positions, dtype=float)
+        if positions.shape != (intervals * count, POSITION_DIM):
+            raise RoleEngineError(f'{name}.positions: must have shape ({intervals * count}, 2) '
+                                  f'(intervals x count) (got {positions.shape})')
+        if not np.all(np.isfinite(positions)):
+            raise RoleEngineError(f'{name}.positions: must be finite')
+        _check_separation(name, combined_radius, epsilon, sigma)
+        self.name = name
+        self.positions = positions
+        self.count = int(count)
+        self.combined_radius = float(combined_radius)
+        self.epsilon = float(epsilon)
+        interval = np.repeat(np.arange(intervals), self.count)
+        self.state_indices = np.stack([interval, interval + 1], axis=1)
+        self.sqrt_information = _isotropic_weight(1, sigma)
+        _, lambdas, psis = interpolation_stack(self.count, dt)
+        self._position_map = np.concatenate([lambdas[:, :POSITION_DIM], psis[:, :POSITION_DIM]], axis=2)
+
+    @staticmethod
+    def instants(support_times: np.ndarray, count: int) -> np.ndarray:
+        """The (N * count,) absolute times the factors compare at, for evenly spaced ``support_times``."""
+        support_times = np.asarray(support_times, dtype=float)
+        dt = support_times[1] - support_times[0]
+        taus = dt * np.arange(1, count + 1) / (count + 1)
+        return (support_times[:-1, None] + taus[None, :]).reshape(-1)
+
+    def errors(self, local_states, factor_ids, with_jacobians=True):
+        maps = self._position_map[np.asarray(factor_ids) % self.count]           # (m, 2, 8)
+        own = np.einsum('mpc,mc->mp', maps, local_states.reshape(len(factor_ids), 2 * STATE_DIM))
+        cost, gradient = separation_hinge(own - self.positions[factor_ids], self.combined_radius, self.epsilon)
+        if not with_jacobians:
+            return cost[:, None], None
+        return cost[:, None], np.einsum('mp,mpc->mc', gradient, maps)[:, None, :]
+
+
+def _check_separation(name: str, combined_radius: float, epsilon: float, sigma: float) -> None:
+    for field, value in (('combined_radius', combined_radius), ('epsilon', epsilon)):
+        if not np.isfinite(value) or value < 0.0:
+            raise RoleEngineError(f'{name}.{field}: must be finite and >= 0 (got {value})')
+    if not np.isfinite(sigma) or sigma <= 0.0:
+        raise RoleEngineError(f'{name}.sigma: must be finite and > 0 (got {sigma})')

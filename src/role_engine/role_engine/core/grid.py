@@ -37,6 +37,13 @@ class GridFrame:
         object.__setattr__(self, 'origin', (float(self.origin[0]), float(self.origin[1])))
         object.__setattr__(self, 'shape', (int(self.shape[0]), int(self.shape[1])))
 
+    @classmethod
+    def covering(cls, bounds, resolution: float) -> GridFrame:
+        """The grid of ``resolution`` cells over world ``bounds`` (xmin, ymin, xmax, ymax)."""
+        xmin, ymin, xmax, ymax = bounds
+        return cls(resolution, (xmin, ymin), (int(round((ymax - ymin) / resolution)),
+                                              int(round((xmax - xmin) / resolution))))
+
     @property
     def bounds(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of the area the grid covers."""
