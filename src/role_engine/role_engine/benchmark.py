@@ -11,8 +11,15 @@
 - **GRA time for n x n.** Group Role Assignment (:func:`.core.assignment.group_role_assignment`,
   Hungarian method with the workability check) on random Q with a share of inf entries (robots
   that cannot play a role), median of ``gra_repeats`` solves per n.
-- **Role-player cycle time** with four robots is not measured: the role_player node does not
-  exist yet. The results say so (``role_player_cycle.skipped``).
+- **Role-player cycle time with four robots.** On the formation map (the bridge scenario of
+  ``config/roles/formation_demo.yaml``, its boxes rasterised at the task's grid resolution, as
+  ``roles-collab`` does), the central computer's initial process roles of the four robots are
+  computed once; then one role-playing update (:func:`.core.formation_task.replan_process_role`,
+  Algorithm 4 lines 3-6, with the task's conflict horizon and robot-avoidance settings) of each
+  robot, with the three others' roles as on the shared channel and its position on its own role,
+  is timed at every instant of :data:`ROLE_PLAYER_INSTANTS`, :data:`ROLE_PLAYER_REPEATS` times;
+  ``role_player_cycle.cycle_ms_median`` is the median over all of them. What the node adds per
+  cycle (message conversion, publishing) is not included.
 
 Run directly with ``python -m role_engine.benchmark [--config-dir DIR] [--out DIR]``.
 """
@@ -33,6 +40,10 @@ from typing import Callable
 import numpy as np
 
 from .benchmark_core import median_ms
+from .collab_experiment import CollabScenario, initial_process_roles, scenario_team
+from .core.conflict import SharedRole
+from .core.environment import environment_from_scenario
+from .core.formation_task import load_formation_task, replan_process_role
 from .core.assignment import group_role_assignment
 from .core.astar import EMapPlanner
 from .core.emap import build_emap
@@ -46,7 +57,12 @@ Log = Callable[[str], None]
 
 #: Largest relative difference of the two formulations' final costs that counts as equal.
 COST_RTOL = 1e-6
-ROLE_PLAYER_SKIPPED = 'the role_player node does not exist yet; its cycle time is not measured'
+#: The formation task whose map and team the role-player cycle is timed on (config dir relative).
+ROLE_PLAYER_TASK = 'roles/formation_demo.yaml'
+#: Shares of the roles' total time at which every robot's update is timed.
+ROLE_PLAYER_INSTANTS = (0.1, 0.3, 0.5, 0.7)
+#: Timed updates per robot and instant.
+ROLE_PLAYER_REPEATS = 3
 
 
 def _initial_trajectory(problem: BenchmarkProblem, planner: EMapPlanner, config: ExperimentConfig) -> np.ndarray:
@@ -105,6 +121,43 @@ def bench_gra(sizes, repeats: int, inf_fraction: float, seed: int = 0) -> dict:
     return timings
 
 
+def bench_role_player(config_dir: Path, repeats: int = ROLE_PLAYER_REPEATS,
+                      instants=ROLE_PLAYER_INSTANTS) -> dict:
+    """Median ms of one role-playing update of a robot with three others sharing roles (module docstring)."""
+    task = load_formation_task(Path(config_dir) / ROLE_PLAYER_TASK)
+    bridge, team = scenario_team(task)
+    if len(team) != 4:
+        raise RoleEngineError(f'{ROLE_PLAYER_TASK}: the role-player benchmark needs four robots (got {len(team)})')
+    environment = environment_from_scenario(bridge, task.grid_resolution)
+    initial = initial_process_roles(CollabScenario('formation', task, None), environment, team)
+    roles = {m.name: SharedRole(m.name, initial[m.name], task.total_time, m.robot_type.radius, 0.0) for m in team}
+    views = {m.name: environment.for_robot(m.robot_type) for m in team}
+    times_ms, conflicts, kept, per_robot = [], 0, 0, {}
+    for member in team:
+        own = roles[member.name]
+        others = [role for name, role in roles.items() if name != member.name]
+        config = task.gp_config(member.robot_type)
+        robot_ms = []
+        for share in instants:
+            now = share * task.total_time
+            position = own.positions([now])[0]
+            for _ in range(repeats):
+                began = time.perf_counter()
+                result = replan_process_role(config, views[member.name], own, others, now, position,
+                                             horizon=task.conflict_horizon, avoidance=task.robot_avoidance)
+                robot_ms.append((time.perf_counter() - began) * 1e3)
+            conflicts += bool(result.conflicting)
+            kept += result.trajectory is None
+        per_robot[member.name] = statistics.median(robot_ms)
+        times_ms += robot_ms
+    return {'cycle_ms_median': statistics.median(times_ms), 'cycle_ms_max': max(times_ms),
+            'per_robot_ms_median': per_robot, 'robots': len(team), 'others_per_update': len(team) - 1,
+            'map': str(task.scenario), 'map_cells': list(environment.shape), 'states': task.states,
+            'instants_s': [share * task.total_time for share in instants], 'repeats': repeats,
+            'updates_timed': len(times_ms), 'instants_with_conflicts': conflicts, 'instants_role_kept': kept,
+            'replan_period_s': task.replan_period}
+
+
 def _versions() -> dict:
     found = {}
     for package in ('numpy', 'scipy', 'gtsam'):
@@ -137,7 +190,11 @@ def run_benchmark(config_dir: str | Path, out_dir: str | Path, log: Log = print)
     worst = max(p['cost_relative_difference'] for p in problems)
     gra_ms = bench_gra(settings.gra_sizes, settings.gra_repeats, settings.gra_inf_fraction)
     log('[bench gpmp] GRA median ms: ' + ', '.join(f'n = {n}: {ms:.3f}' for n, ms in gra_ms.items()))
-    log(f'[bench gpmp] role-player cycle time: skipped ({ROLE_PLAYER_SKIPPED})')
+    cycle = bench_role_player(Path(config_dir))
+    log(f"[bench gpmp] role-player cycle time, 4 robots ({cycle['updates_timed']} updates on "
+        f"{Path(cycle['map']).name}, {cycle['map_cells'][0]} x {cycle['map_cells'][1]} cells, {cycle['states']} "
+        f"states): median {cycle['cycle_ms_median']:.1f} ms, max {cycle['cycle_ms_max']:.1f} ms (replan period "
+        f"{cycle['replan_period_s'] * 1e3:.0f} ms)")
     results = {
         'benchmark': 'gpmp', 'config': str(config.path), 'states': config.states,
         'total_time_s': config.total_time, 'repeats': settings.repeats, 'sigma_obs': settings.sigma_obs,
@@ -147,7 +204,7 @@ def run_benchmark(config_dir: str | Path, out_dir: str | Path, log: Log = print)
         'ratio_gtsam_over_vectorised': medians['gtsam'] / medians['vectorised'],
         'cost_max_relative_difference': worst, 'cost_rtol': COST_RTOL, 'costs_equal': worst <= COST_RTOL,
         'gra_ms_median': gra_ms, 'gra_repeats': settings.gra_repeats, 'gra_inf_fraction': settings.gra_inf_fraction,
-        'role_player_cycle': {'skipped': True, 'reason': ROLE_PLAYER_SKIPPED},
+        'role_player_cycle': cycle, 'role_player_cycle_ms_median': cycle['cycle_ms_median'],
         'problems': problems, 'environment': _versions(),
     }
     (out_dir / 'results.json').write_text(json.dumps(results, indent=2) + '\n')
