@@ -13,7 +13,17 @@ Two robots meeting head-on start from a symmetric saddle: the straight line push
 back and LM stays on it. So when the warm-started plan still conflicts, the update also
 starts LM from *detour* initialisations -- the warm-start plan shifted sideways around the
 first conflict by ``detour_scales`` x (r_i + r_j + clearance), to the right and to the left
-of the relative motion -- and keeps the best result.
+of the relative motion -- and keeps the best result. Detours are also tried when the
+warm-started plan keeps the gap only by pressing into a wall.
+
+In a passage too narrow to pass side by side no detour is collision-free and wall-free. Then
+the rule of :mod:`.yielding` (first into the conflict area keeps its role, ties by name,
+computed from the shared roles only) decides per conflicting robot: towards one that keeps
+its role, the robot adds *waiting* candidates (drive to a free spot off the other's path,
+hold until the other's role has cleared, then go on; the role's total time grows so the
+speed limit holds); towards ones that yield to it, it adds a *right of way* candidate, the
+warm start optimised without those robots' roles (they are about to wait), whose gap is
+measured against the remaining robots only.
 
 Where the paper is silent (it adds a conflict field to the SDF, Fig. 5; a static disc on
 the other's path blocks a detour at every time, so the time-indexed form is used instead):
@@ -44,11 +54,16 @@ from .errors import RoleEngineError
 from .gp_costs import CostTerm, InterpolatedMovingObstacleTerm, MovingObstacleTerm
 from .gp_planner import GPPlanner, GPPlannerConfig, GPPlanResult
 from .trajectory import interpolate
+from .yielding import right_of_way, waiting_plans
 
 #: Speed used to time a detour's ramps when the planner has no speed limit [m/s].
 DEFAULT_DETOUR_SPEED = 0.5
 #: Instants per interval at which separations between roles are measured (reports, choice).
 SEPARATION_SAMPLES = 10
+#: A waiting plan drives at this share of the GP speed limit, so its optimised role respects Eq. 22.
+YIELD_SPEED_FRACTION = 0.8
+#: Support intervals added after a waiting plan reaches its goal, for the GP to slow down to rest.
+YIELD_SETTLE_INTERVALS = 2
 
 
 @dataclass(frozen=True)
@@ -116,6 +131,12 @@ class Replan:
     initialisation: str = ''
     candidates: int = 0
     term_costs: dict[str, float] = field(default_factory=dict)
+    #: The robots this plan waits for (a yielding plan won), else empty.
+    yielding_to: list[str] = field(default_factory=list)
+    #: The robots expected to yield to this one (right of way); ``min_gap`` then leaves them out.
+    right_of_way_over: list[str] = field(default_factory=list)
+    #: (arrival at the waiting spot, release) in absolute time of the winning waiting plan, else None.
+    waiting: tuple[float, float] | None = None
 
 
 def moving_obstacle_terms(own_radius: float, others: list[SharedRole], support_times: np.ndarray,
@@ -209,9 +230,11 @@ def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnviron
     states, is the warm start; the start state is the tracked ``position`` with the role's
     velocity at ``now``, the goal the role's destination at rest. The others are moving
     obstacles at the same times; when the warm-started plan still comes too close to one,
-    detour initialisations are optimised too and the best plan is kept (module docstring).
-    With less than ``min_remaining`` seconds left the role is kept (nothing left worth
-    re-optimising).
+    detour initialisations are optimised too, and when none of those is collision-free and
+    wall-free either, the narrow-passage rule of :mod:`.yielding` decides: the robot either
+    waits (yielding candidates) or keeps its role against the robots that yield to it (right
+    of way). The best plan is kept (module docstring). With less than ``min_remaining``
+    seconds left the role is kept (nothing left worth re-optimising).
     """
     avoidance = AvoidanceSettings() if avoidance is None else avoidance
     elapsed = now - own.start_time
@@ -228,28 +251,84 @@ def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnviron
     initial[0] = start
     goal = np.concatenate([own.trajectory[-1, :2], [0.0, 0.0]])
     planner = GPPlanner(planner_config, robot_env.sdf)
-    extra = moving_obstacle_terms(own.radius, others, now + relative_times, avoidance)
+    speed = planner_config.max_speed or DEFAULT_DETOUR_SPEED
 
-    def solve(states: np.ndarray) -> tuple[GPPlanResult, float]:
-        result = planner.plan(states, remaining, start=start, goal=goal, extra_terms=extra)
+    def solve(label: str, states: np.ndarray, total: float, respected: list[SharedRole]) -> _Candidate:
+        extra = moving_obstacle_terms(own.radius, respected, now + np.linspace(0.0, total, len(states)), avoidance)
+        result = planner.plan(states, total, start=start, goal=goal, extra_terms=extra)
         if not np.isfinite(result.trajectory).all():
-            return result, -math.inf
-        gaps = role_gaps(result.trajectory, now, remaining, own.radius, others)
-        return result, min(gaps.values(), default=math.inf)
+            return _Candidate(label, result, -math.inf, total)
+        gaps = role_gaps(result.trajectory, now, total, own.radius, respected)
+        return _Candidate(label, result, min(gaps.values(), default=math.inf), total)
 
-    tried = [('warm start', *solve(initial))]
-    if tried[0][2] < 0.5 * avoidance.clearance and others and np.isfinite(tried[0][1].trajectory).all():
-        base = tried[0][1].trajectory
-        gaps = role_gaps(base, now, remaining, own.radius, others)
-        nearest = min(others, key=lambda other: gaps[other.name])
-        speed = planner_config.max_speed or DEFAULT_DETOUR_SPEED
-        for label, states in detour_initialisations(base, relative_times, own.radius, nearest, now, avoidance,
-                                                    speed):
-            tried.append((label, *solve(states)))
-    usable = [entry for entry in tried if np.isfinite(entry[1].trajectory).all() and np.isfinite(entry[1].cost)]
+    tried = [solve('warm start', initial, remaining, others)]
+    warm = tried[0]
+    in_conflict: list[SharedRole] = []
+    if others and warm.finite:
+        # Conflicting robots: too close to the role as published or to its re-optimised version
+        # (the GP may keep the gap by pressing the plan into a wall instead).
+        published = role_gaps(initial, now, remaining, own.radius, others)
+        gaps = role_gaps(warm.result.trajectory, now, remaining, own.radius, others)
+        in_conflict = [other for other in others
+                       if min(published[other.name], gaps[other.name]) < 0.5 * avoidance.clearance]
+        if warm.gap < 0.5 * avoidance.clearance or (in_conflict and not warm.result.collision_free):
+            nearest = min(in_conflict or others, key=lambda other: min(published[other.name], gaps[other.name]))
+            for label, states in detour_initialisations(warm.result.trajectory, relative_times, own.radius,
+                                                        nearest, now, avoidance, speed):
+                tried.append(solve(label, states, remaining, others))
+    yielding_to: list[str] = []
+    right_of_way_over: list[str] = []
+    if in_conflict and not any(c.feasible for c in tried):
+        # Narrow passage (core/yielding.py): no detour passes, so one of each conflicting pair waits.
+        blocking = in_conflict
+        keeps = {other.name: right_of_way(own, other, robot_env, now, avoidance.clearance) for other in blocking}
+        give_way = [other for other in blocking if keeps[other.name] is True]
+        respected = [other for other in others if other not in give_way]
+        yield_to = [other for other in blocking if keeps[other.name] is not True]
+        if yield_to:
+            yielding_to = [other.name for other in yield_to]
+            dt = remaining / (count - 1)
+            for plan in waiting_plans(robot_env, own.radius, position, goal[:2], now, yield_to, respected,
+                                      clearance=avoidance.clearance, speed=YIELD_SPEED_FRACTION * speed,
+                                      spot_clearance=planner_config.epsilon):
+                needed = plan.finish - now + YIELD_SETTLE_INTERVALS * dt
+                states_count = count if needed <= remaining else int(math.ceil(needed / dt)) + 1
+                total = remaining if needed <= remaining else (states_count - 1) * dt
+                states = plan.states(now + np.linspace(0.0, total, states_count), start)
+                candidate = solve(f"yield to {', '.join(yielding_to)}: {plan.label}", states, total, respected)
+                candidate.waiting = (plan.arrive, plan.release)
+                tried.append(candidate)
+        elif give_way:
+            right_of_way_over = [other.name for other in give_way]
+            tried.append(solve(f"right of way over {', '.join(right_of_way_over)}", initial, remaining, respected))
+    usable = [c for c in tried if c.finite and np.isfinite(c.result.cost)]
     if not usable:
         return Replan(None, own.start_time, own.total_time, conflicting, 'GP inference diverged',
-                      candidates=len(tried))
-    label, best, gap = min(usable, key=lambda e: (not (e[2] >= 0.0 and e[1].collision_free), e[1].cost))
-    return Replan(best.trajectory, float(now), float(remaining), conflicting, cost=float(best.cost), min_gap=gap,
-                  initialisation=label, candidates=len(tried), term_costs=dict(best.term_costs))
+                      candidates=len(tried), yielding_to=yielding_to)
+    best = min(usable, key=lambda c: (not c.feasible, c.result.cost))
+    won_yield = best.label.startswith('yield')
+    return Replan(best.result.trajectory, float(now), float(best.total), conflicting,
+                  cost=float(best.result.cost), min_gap=best.gap, initialisation=best.label, candidates=len(tried),
+                  term_costs=dict(best.result.term_costs), yielding_to=yielding_to if won_yield else [],
+                  right_of_way_over=right_of_way_over if best.label.startswith('right of way') else [],
+                  waiting=best.waiting)
+
+
+@dataclass
+class _Candidate:
+    """One optimised initialisation: its GP result, its min gap to the robots it respects, its duration."""
+
+    label: str
+    result: GPPlanResult
+    gap: float
+    total: float
+    waiting: tuple[float, float] | None = None
+
+    @property
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.result.trajectory).all())
+
+    @property
+    def feasible(self) -> bool:
+        """Collision-free and wall-free: the choice's first criterion."""
+        return self.finite and self.gap >= 0.0 and bool(self.result.collision_free)
