@@ -19,6 +19,7 @@ setup(
     entry_points={
         'console_scripts': [
             'schema_agent = coalition_agents.schema_agent_node:main',
+            'schema_agent_host = coalition_agents.agent_host:main',
         ],
     },
 )

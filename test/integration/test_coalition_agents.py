@@ -1,11 +1,14 @@
 """Three schema_agent processes and the bridge: the robot without localisation forms its
-least-cost coalition with the GPS robot its fiducial sees (IQ-ASyMTRe, Algorithm 2).
+least-cost coalition with the GPS robot its fiducial sees (IQ-ASyMTRe, Algorithm 2); during
+execution the helper streams what it committed to, and the leader re-forms (or reports failed)
+when its helper stops.
 
 The expectation is computed with the core: what each robot's sensors retrieve in the scenario's
 geometry (fields of view and ranges from the scenario file) goes through the node's own
 conversion (LiveSensing) into the in-process CoalitionSearch.
 """
 
+import json
 import math
 import re
 import time
@@ -14,7 +17,7 @@ import pytest
 import yaml
 
 from collab_tools.orchestration.node_process import NodeSpec
-from bridge_helpers import bridge_spec
+from bridge_helpers import body_pose, bridge_spec
 from coalition_interfaces.msg import AgentMessage, Information
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file, load_costs, load_library, load_tasks
 from coalition_agents.core.live_sensing import LiveSensing
@@ -129,3 +132,106 @@ def test_bad_parameters_and_files_stop_the_agent_with_a_message(session, files, 
                                          parameters=[params], required=False))
         assert session.wait_for_exit(f'bad_agent_{index}', timeout=60.0) == 2
         assert expected in process.log_path.read_text(), process.log_path.read_text()
+
+
+# --- execution: streamed information, re-forming ---------------------------------------------------
+
+NAV_LEADER, SPARE_A, SPARE_B = 'pusher_r2', 'localizer_l1', 'localizer_l2'
+
+
+def boxpush_files(config_dir):
+    coalitions = config_dir / 'coalitions'
+    return {'capability_file': str(coalitions / 'capabilities' / 'box_pushing_team.yaml'),
+            'schemas_file': str(coalitions / 'schemas.yaml'), 'costs_file': str(coalitions / 'costs.yaml'),
+            'tasks_file': str(coalitions / 'tasks.yaml')}
+
+
+def start_navigation_team(session, config_dir, loss):
+    """The navigation part of the box-pushing scenario: pusher_r2 cannot localise; localizer_l1 and
+    localizer_l2 both see it (it sees neither). The box-pushing robots' agents are not started."""
+    session.start(bridge_spec(config_dir / 'scenarios' / 'coalition_boxpush.yaml', real_time_factor=1.0,
+                              start_paused=False, publish_camera=False, ground_truth_rate=5.0))
+    for index, robot in enumerate((NAV_LEADER, SPARE_A, SPARE_B)):
+        params = {**boxpush_files(config_dir), 'robot': robot, 'task': 'navigation' if robot == NAV_LEADER else 'none',
+                  'team_task': 'navigation', 'loss_probability': loss, 'seed': 200 + index, 'search_time': 3.0,
+                  'team_wait': 3.0, 'reform_timeout': 1.5, 'stream_timeout': 1.0, 'goal_position': [1.0, -3.0]}
+        session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'schema_agent_{robot}', parameters=[params]))
+
+
+@pytest.mark.parametrize('loss', [0.0, 0.2])
+def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stops(session, config_dir, loss):
+    start_navigation_team(session, config_dir, loss)
+    first = session.wait_for_message(f'/{NAV_LEADER}/coalition', STATUS, latched=True, timeout=60.0,
+                                     predicate=lambda m: m.state in ('committed', 'failed'))
+    assert first.state == 'committed', first.detail
+    assert len(first.members) == 2 and first.members[0] == NAV_LEADER
+    helper = first.members[1]
+    spare = SPARE_B if helper == SPARE_A else SPARE_A
+    # The helper streams what it committed to: its GPS pose F_G(helper) and its fiducial's view of
+    # the leader F_R(pusher_r2, helper); composed (Table I), they put the leader where it truly is.
+    def streamed(label, referents):
+        msg = session.wait_for_message(
+            '/coalition/channel', 'coalition_interfaces/msg/AgentMessage', timeout=20.0,
+            predicate=lambda m: (m.kind == 8 and m.sender == helper and m.receiver == NAV_LEADER
+                                 and m.instance.type == label and list(m.instance.referents) == referents))
+        assert msg.coalition_id == first.coalition_id
+        return json.loads(msg.reason)
+
+    pose, seen = streamed('F_G', [helper]), streamed('F_R', [NAV_LEADER, helper])
+    c, s_ = math.cos(pose['yaw']), math.sin(pose['yaw'])
+    x, y, _ = body_pose(session, NAV_LEADER)
+    assert (pose['x'] + c * seen['x'] - s_ * seen['y'], pose['y'] + s_ * seen['x'] + c * seen['y']) == \
+        pytest.approx((x, y), abs=0.05)
+    # Streamed values are checked like every message: a malformed one is dropped with a message.
+    publisher = session.observer.node.create_publisher(AgentMessage, '/coalition/channel', 10)
+    deadline = time.monotonic() + 10.0
+    while publisher.get_subscription_count() < 2:  # the leader and the spare (the helper too)
+        assert time.monotonic() < deadline, 'the agents are not on /coalition/channel'
+        time.sleep(0.05)
+    publisher.publish(AgentMessage(message_id=7, sender=helper, receiver=NAV_LEADER, kind=8,
+                                   instance=Information(type='F_G', referents=[helper]),
+                                   coalition_id=first.coalition_id, reason='{"x": "north"}'))
+    leader_log = session.run_dir / 'logs' / f'schema_agent_{NAV_LEADER}.log'
+    deadline = time.monotonic() + 10.0
+    while 'message.values.x: must be a finite number' not in leader_log.read_text():
+        assert time.monotonic() < deadline, 'the malformed information message was not reported'
+        time.sleep(0.1)
+    # The helper stops: its stream goes stale, the leader releases the coalition and re-forms it
+    # with the spare GPS robot that also sees it.
+    session.stop(f'schema_agent_{helper}')
+    second = session.wait_for_message(
+        f'/{NAV_LEADER}/coalition', STATUS, latched=True, timeout=60.0,
+        predicate=lambda m: m.state in ('committed', 'failed') and m.coalition_id != first.coalition_id)
+    assert second.state == 'committed', second.detail
+    assert tuple(second.members) == (NAV_LEADER, spare)
+    spare_status = session.wait_for_message(f'/{spare}/coalition', STATUS, latched=True, timeout=10.0,
+                                            predicate=lambda m: m.state == 'committed')
+    assert spare_status.coalition_id == second.coalition_id
+    log = (session.run_dir / 'logs' / f'schema_agent_{NAV_LEADER}.log').read_text()
+    assert f're-forming (1/3) without {helper}' in log
+    assert 'releasing it' in log
+    # The spare took exactly one commitment (never two at a time).
+    spare_log = (session.run_dir / 'logs' / f'schema_agent_{spare}.log').read_text()
+    assert len(re.findall(r'committed to coalition (\S+)', spare_log)) == 1
+
+
+def test_the_leader_reports_failed_when_its_only_helper_stops(session, files, config_dir):
+    scenario = config_dir / 'scenarios' / 'coalition_three_robots.yaml'
+    session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
+                              ground_truth_rate=1.0))
+    for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
+        params = {**files, 'robot': robot, 'task': 'navigation' if robot == LEADER else 'none',
+                  'team_task': 'navigation', 'seed': 300 + index, 'search_time': 3.0, 'reform_timeout': 1.0,
+                  'max_reforms': 1}
+        session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'schema_agent_{robot}',
+                               parameters=[params]))
+    first = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=45.0,
+                                     predicate=lambda m: m.state in ('committed', 'failed'))
+    assert first.state == 'committed' and tuple(first.members) == (LEADER, HELPER), first.detail
+    session.stop(f'schema_agent_{HELPER}')
+    # Nobody else can localise the leader (the bystander is seen by nobody): the re-formed search
+    # finds nothing and the leader says so.
+    final = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=45.0,
+                                     predicate=lambda m: m.state == 'failed')
+    assert 'no executable coalition could be set up' in final.detail
+    assert final.coalition_id == ''

@@ -11,6 +11,12 @@ form, validated (:class:`~.core.channel_codec.ChannelCodec`), run through the
 ACKs, commitment answers) and handed to ``on_message``. A malformed message is logged and
 dropped; the channel never raises from a ROS callback.
 
+Streamed information (kind INFORMATION = 8, :meth:`AgentChannel.stream`) goes through the same
+link model but is never acknowledged or retried (the latest value wins). AgentMessage has no
+numeric array field, so its values travel as a JSON object in ``reason`` (e.g.
+``{"x": 1.2, "y": -0.4}``), decoded and checked by the codec like every other field; a
+``float64[] values`` field in the interface would be the cleaner carrier.
+
 Usage (in the schema_agent node)::
 
     channel = AgentChannel(node, 'robot_1', codec, LinkModel.preset('paper_fig9', loss_probability=0.2),
@@ -20,6 +26,7 @@ Usage (in the schema_agent node)::
 """
 from __future__ import annotations
 
+import json
 import time
 from typing import Callable, Iterable, Sequence
 
@@ -28,7 +35,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from coalition_interfaces.msg import AgentMessage, ChainLink, Information
 
-from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind
+from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
 from .core.errors import CoalitionError
 from .core.link_model import LinkModel
 from .core.reliable_channel import Negotiation, Received, ReliableChannel, RetryPolicy, Undelivered
@@ -62,6 +69,8 @@ def to_ros(message: ChannelMessage, stamp=None) -> AgentMessage:
     msg.coalition_id = data.get('coalition_id', '')
     msg.hold_seconds = float(data.get('hold_seconds', 0.0))
     msg.reason = data.get('reason', '')
+    if 'values' in data:
+        msg.reason = json.dumps(data['values'], sort_keys=True)
     return msg
 
 
@@ -84,10 +93,20 @@ def from_ros(msg: AgentMessage) -> dict:
         'coalition_id': lambda: msg.coalition_id,
         'hold_seconds': lambda: float(msg.hold_seconds),
         'reason': lambda: msg.reason,
+        'values': lambda: _values_from_text(msg.reason),
     }
     for name in fields:
         data[name] = readers[name]()
     return data
+
+
+def _values_from_text(text: str) -> object:
+    """An INFORMATION message's values from its ``reason`` field (see the module docstring);
+    the codec checks what they contain."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CoalitionError(f'message.values: not a JSON object of numbers in the reason field ({exc})') from None
 
 
 def _information(data: dict) -> Information:
@@ -165,6 +184,10 @@ class AgentChannel:
         for message in messages:
             self._transmit(message)
         return negotiation, reason
+
+    def stream(self, receiver: str, coalition_id: str, instance, values) -> None:
+        """Send one value of ``instance`` to ``receiver`` (loss-tolerant: no ACK, no retry)."""
+        self.send(information_message(self.robot, self.new_id(), receiver, coalition_id, instance, values))
 
     def release(self, coalition_id: str, reason: str = '') -> None:
         for message in self.core.release(coalition_id, self.now(), reason):

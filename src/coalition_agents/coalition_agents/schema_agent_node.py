@@ -14,14 +14,49 @@ The reasoning is :class:`~.core.agent.SchemaAgent` (pure Python); this node conn
   negotiating, committed, failed, idle), the coalition, its leader, members and cost.
 
 Life cycle (sim time, ``use_sim_time``): once every teammate's agent listens on the channel (or
-after ``team_wait``) a robot with a task starts the search; every ``tick_period`` it re-instantiates its reply spaces and sends better offers. After
-``search_time`` it negotiates its least-cost coalition (the cheapest per set of members, in
-non-descending cost: if one helper refuses or cannot be reached, the next), keeps the sensors
-of that coalition active and publishes it. A helper accepts the first coalition that asks it
-(CommitmentLedger: one commitment at a time) and keeps the sensors it serves its leader with.
+after ``team_wait``) a robot with a task starts the search; every ``tick_period`` it
+re-instantiates its reply spaces and sends better offers. After ``search_time`` it negotiates its
+least-cost coalition (the cheapest per set of members, in non-descending cost: if one helper
+refuses or cannot be reached, the next), keeps the sensors of that coalition active (and those of
+the answers it gives itself, footnote 10) and publishes it. A helper accepts the first coalition
+that asks it (CommitmentLedger: one commitment at a time) and keeps the sensors it serves its
+leader with.
 
-Not done yet: the motor schema (driving), re-forming when the coalition stops being feasible,
-and streaming the helpers' information to the leader after the coalition is set up.
+Execution (after the coalition is set up):
+
+* Streaming: every ``1 / stream_rate`` s a committed helper evaluates each answer it serves a
+  coalition member on its current readings and incoming streams
+  (:func:`~.core.information_values.evaluate`) and sends the value as an INFORMATION message
+  (loss-tolerant: no ACK, the latest value wins; stale after ``stream_timeout``,
+  :class:`~.core.information_stream.InformationStream`). The leader instantiates its task's
+  required information from its own readings, the streams and the a-priori values
+  (``goal_position`` for F_G(goal)), e.g. F_G(local) = helper's F_G composed with the helper's
+  F_R(local, helper).
+* Motor schemas (``drive``: true; :mod:`~.core.motor_schema`): the leader publishes
+  /<robot>/cmd_vel -- ``navigate`` goes to the goal (heading from the GPS, or estimated from its
+  motion when a teammate's fiducial localises it); ``push_box_cooperatively`` pushes the box to
+  the goal and waits while the teammate's streamed bumper is not pressed. A committed helper runs
+  ``maintain_relative_position`` on its fiducial view of the leader (a pushing teammate also
+  creeps into contact and keeps pressing). When the MS is done the leader stops, releases its
+  helpers and reports ``completed`` (``failed`` after ``task_time_limit``).
+* Re-forming (``reform_timeout`` > 0; 0, the default, keeps a coalition however its information
+  fares): when a source of the chosen solution -- a helper's stream or the leader's own reading --
+  has had no current value for ``reform_timeout``, the leader stops, releases the coalition
+  (RELEASE to every helper through the channel) and searches again without the helpers that
+  stopped, at most ``max_reforms`` times, then reports ``failed``. A driving leader whose
+  candidates all refuse (busy in other coalitions) also searches again.
+
+``exit_when_done``: exit once the coalition is set up or failed (a driving leader: once its task
+is completed or failed, and the robots in ``exit_after`` report theirs too) / the helper released.
+
+Malformed channel messages and malformed sensor reports are logged and dropped; bad parameters
+stop the node with exit code 2 and a message naming the parameter.
+
+Known limits: the bridge's fiducial measures positions, not the seen robot's orientation, so an
+answer that needs a relative heading (inverting F_R, or composing through a robot localised by a
+fiducial) cannot be computed on values; such a coalition is set up but its MS waits, and a
+helper does not stream what it cannot compute. The INFORMATION values travel as JSON in
+AgentMessage's ``reason`` field (see :mod:`.agent_channel`).
 """
 from __future__ import annotations
 
@@ -33,7 +68,7 @@ from bridge_interfaces.msg import BumperState, FiducialDetections
 from bridge_interfaces.srv import SetSensorActive
 from coalition_interfaces.msg import AgentStatus
 from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
-from geometry_msgs.msg import PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, Vector3
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
@@ -43,7 +78,12 @@ from .agent_channel import AgentChannel
 from .core.agent import FeasibleCoalition, SchemaAgent
 from .core.capabilities import load_capability_file
 from .core.channel_codec import ChannelCodec, ChannelMessage, MessageKind, offer_message, request_message
+from .core.coalition_execution import CoalitionExecution
 from .core.errors import CoalitionError
+from .core.information import Entity, InformationInstance
+from .core.information_stream import InformationStream
+from .core.information_values import ValueUnavailable, evaluate
+from .core.motor_schema import STOP, BoxPush, GoToGoal, HeadingEstimator, MaintainRelativePosition, Velocity
 from .core.link_model import LinkModel
 from .core.reliable_channel import Negotiation, Received
 from .core.schemas import load_costs, load_library
@@ -79,6 +119,21 @@ class SchemaAgentNode(Node):
                 ('reading_timeout', 1.0, 'sim s a sensor report stays current, > 0'),
                 ('tick_period', 0.1, 'sim s between re-evaluations, > 0'),
                 ('team_wait', 10.0, 'sim s to wait for every teammate on the channel before searching, > 0'),
+                ('stream_rate', 5.0, 'Hz (sim) at which a helper streams the information it serves, > 0'),
+                ('stream_timeout', 1.0, 'sim s after which a streamed value is stale, > 0'),
+                ('reform_timeout', 0.0, 'sim s a coalition may stay infeasible before the leader re-forms it, >= 0 '
+                                        '(0 = never: it keeps the coalition)'),
+                ('max_reforms', 3, 'how often a leader re-forms before it reports failed, >= 0'),
+                ('drive', False, 'run the motor schemas on /<robot>/cmd_vel (leader: the task MS; helper: '
+                                 'maintain_relative_position)'),
+                ('goal_position', [0.0, 0.0], 'x y (m) of the a-priori F_G(goal) the task MS uses'),
+                ('max_speed', 0.4, 'm/s, > 0: navigate and follow speed limit'),
+                ('box_standoff', 0.55, 'm, > 0: box centre to robot centre when pushing (half box depth + radius)'),
+                ('push_offset', 0.0, 'm: where along the box back face the leader pushes (+ = left)'),
+                ('goal_tolerance', 0.25, 'm, > 0: navigation / box distance to the goal that completes the task'),
+                ('exit_after', [''], "with exit_when_done: exit only once these robots' agents report their "
+                                     "task completed or failed too (an experiment's last leader)"),
+                ('task_time_limit', 0.0, 'sim s after the search start a driving leader gives up, >= 0 (0 = none)'),
                 ('exit_when_done', False, 'exit once the coalition is set up (or failed) / the helper released')):
             declare_parameter(self, name, default, description)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
@@ -118,6 +173,24 @@ class SchemaAgentNode(Node):
         tick_period = self._positive(p, 'tick_period')
         self.team_wait = self._positive(p, 'team_wait')
         self.exit_when_done = bool(p('exit_when_done'))
+        self.stream_period = 1.0 / self._positive(p, 'stream_rate')
+        self.reform_timeout = self._number(p, 'reform_timeout', 0.0, 'a number >= 0')
+        self.max_reforms = p('max_reforms')
+        if isinstance(self.max_reforms, bool) or not isinstance(self.max_reforms, int) or self.max_reforms < 0:
+            raise ConfigurationError(f'parameter max_reforms: must be an integer >= 0 (got {self.max_reforms!r})')
+        self.drive = bool(p('drive'))
+        self.task_time_limit = self._number(p, 'task_time_limit', 0.0, 'a number >= 0')
+        self.exit_after = [name for name in p('exit_after') if name]
+        goal = list(p('goal_position'))
+        if len(goal) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in goal):
+            raise ConfigurationError(f'parameter goal_position: must be [x, y] in m (got {goal!r})')
+        self.stream = InformationStream(self._positive(p, 'stream_timeout'))
+        # Each value is checked here, so the motor schemas' own checks cannot fail.
+        max_speed, tolerance = self._positive(p, 'max_speed'), self._positive(p, 'goal_tolerance')
+        standoff = self._positive(p, 'box_standoff')
+        push_offset = self._number(p, 'push_offset', -math.inf, 'a finite number')
+        self.navigate = GoToGoal(max_speed=max_speed, tolerance=tolerance)
+        self.push = BoxPush(standoff=standoff, lateral_offset=push_offset, tolerance=tolerance)
         link = self._link_model(p)
         try:
             self.agent = SchemaAgent(self.robot, team, library, costs, task, self, team_task=team_task,
@@ -127,7 +200,14 @@ class SchemaAgentNode(Node):
         except (CoalitionError, ValueError) as exc:
             raise ConfigurationError(f'parameter task: {exc}') from None
         self.task_name = task_name
+        self.team_motor_schema = (task if task is not None else team_task).motor_schema
         self.team = tuple(team)
+        if self.drive and task is not None and task.motor_schema not in MOTOR_SCHEMAS:
+            raise ConfigurationError(f"parameter drive: task {task_name}'s motor schema {task.motor_schema} has no "
+                                     f"implementation here (implemented: {', '.join(MOTOR_SCHEMAS)})")
+        self.priors = {InformationInstance('F_G', (Entity('goal', robot=False),)): {'x': float(goal[0]),
+                                                                                     'y': float(goal[1])},
+                       InformationInstance('F_M'): {}}
         codec = ChannelCodec.for_team(library, self.team)
         self.channel = AgentChannel(self, self.robot, codec, link, team=self.team, on_message=self._on_message)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -138,6 +218,26 @@ class SchemaAgentNode(Node):
             topic, msg_type = BRIDGE_SENSORS[sensor]
             self.create_subscription(msg_type, f'/{self.robot}/{topic}',
                                      lambda msg, sensor=sensor: self._on_sensor(sensor, msg), 10)
+        self.cmd_pub = self.create_publisher(Twist, f'/{self.robot}/cmd_vel', 10) if self.drive else None
+        self.execution: CoalitionExecution | None = None
+        self.heading = HeadingEstimator()
+        self.follow: MaintainRelativePosition | None = None
+        self.ms_phase = ''
+        self.task_complete = False
+        self.task_started_at: float | None = None
+        self._reforms = 0
+        self._last_unavailable = ''
+        self._tick_period = tick_period
+        self.create_timer(self.stream_period, self._stream)
+        unknown = [name for name in self.exit_after if name not in team]
+        if unknown:
+            raise ConfigurationError(f"parameter exit_after: {unknown[0]!r} is not in the capability file's robots "
+                                     f"({', '.join(team)})")
+        self.others_done: set[str] = set()
+        for name in self.exit_after:
+            self.create_subscription(AgentStatus, f'/{name}/coalition',
+                                     lambda msg, name=name: self._on_other_status(name, msg), latched)
+        self._own_done = False
         self.finished = Future()
         self.state = 'idle'
         self.started_at: float | None = None
@@ -239,8 +339,12 @@ class SchemaAgentNode(Node):
     def _on_sensor(self, sensor: str, msg) -> None:
         if sensor not in self.agent.active_sensors:
             return  # a report published before we switched it off
-        detected = [d.name for d in msg.detections] if sensor == 'fiducial' else ()
-        self.agent.observe(sensor, self._now(), detected)
+        try:
+            detected, values = sensor_values(sensor, msg)
+            self.agent.sensing.report(sensor, self._now(), detected, values)
+        except (CoalitionError, ValueError) as exc:
+            self.get_logger().warning(f'{self.robot}: dropped a malformed {sensor} report: {exc}',
+                                      throttle_duration_sec=5.0)
 
     def _on_message(self, message: ChannelMessage, received: Received) -> None:
         now = self._now()
@@ -254,10 +358,19 @@ class SchemaAgentNode(Node):
                 self.agent.on_request(message.request, message)
             elif message.kind is MessageKind.OFFER:
                 self.agent.on_offer(message.offer)
+            elif message.kind is MessageKind.INFORMATION:
+                if (self.commitment is not None and message.coalition_id == self.commitment[0]
+                        and message.sender in self.commitment[2]):  # only the coalition's members
+                    self.stream.update(message.sender, message.instance, dict(message.values), message.message_id, now)
             elif message.kind is MessageKind.COMMIT_REQUEST and received.accepted:
                 self.commitment = (message.coalition_id, message.sender, message.members, message.cost)
+                self.stream.forget()
+                self.follow = None
                 self.state = 'committed'
-                self.agent.keep_only(self.agent.sensors_serving(message.sender))
+                serving = self.agent.sensors_serving(message.sender)
+                if self.drive:  # the helper MS needs the leader in view and its own contact
+                    serving += tuple(s for s in ('fiducial', 'bumper') if s in self.agent.sensing.sensors)
+                self.agent.keep_only(serving)
                 self.get_logger().info(f'{self.robot}: committed to coalition {message.coalition_id} of '
                                        f"{message.sender} ({', '.join(message.members)}, cost {message.cost:g})")
                 self._publish_status()
@@ -266,6 +379,8 @@ class SchemaAgentNode(Node):
                 self.commitment = None
                 self.state = 'idle'
                 self.agent.keep_only(())
+                self.follow = None
+                self._command(STOP)
                 self._publish_status()
                 if self.exit_when_done and not self.finished.done():
                     self.finished.set_result(True)
@@ -290,6 +405,7 @@ class SchemaAgentNode(Node):
                 self.get_logger().warning(f'{self.robot}: {listening} of {len(self.team)} agents on the channel '
                                           f'after {self.team_wait:g} s; starting anyway')
             self.started_at = now
+            self.task_started_at = now
             if self.agent.task is not None:
                 self.state = 'searching'
                 self.agent.start()
@@ -297,6 +413,10 @@ class SchemaAgentNode(Node):
         self.agent.tick(now)
         if self.agent.task is not None:
             self._lead(now)
+            if self.state == 'committed' and self.execution is not None:
+                self._execute(now)
+        elif self.drive and self.state == 'committed':
+            self._help(now)
         elif (self.exit_when_done and self.commitment is None and self.helping_since is not None
               and now >= self.helping_since + 3 * self.search_time and not self.finished.done()):
             self.agent.keep_only(())
@@ -323,7 +443,188 @@ class SchemaAgentNode(Node):
                 self.channel.release(self.negotiation.coalition_id, 'negotiation failed')
                 self._propose_next(now)
 
+    # --- execution: streaming, motor schemas, re-forming ---------------------------------------------
+    def _stream(self) -> None:
+        """Send the current value of every instance this robot serves its coalition (helpers; a
+        leader serves itself locally)."""
+        if self.commitment is None or self.started_at is None:
+            return
+        now = self._now()
+        coalition_id, _, members, _ = self.commitment
+        others = [robot for robot in members if robot != self.robot]
+        for requester, answer, lcs in self.agent.served_answers(others):
+            try:
+                value = evaluate(lcs, lambda i: self.agent.sensing.value(i, now),
+                                 lambda provider, i: self._streamed(provider, i, now), self.priors)[answer]
+            except ValueUnavailable:
+                continue  # not computable now (e.g. the leader out of view): the leader sees it stale
+            self.channel.stream(requester, coalition_id, answer, value)
+
+    def _execute(self, now: float) -> None:
+        """The leader: re-form when the coalition's information stops flowing, else run the MS."""
+        check = self.execution.check(now, lambda p, i: self._streamed(p, i, now) is not None,
+                                     lambda s, i: self.agent.sensing.value(i, now) is not None)
+        if check.reform:
+            self._reform(now, check)
+            return
+        if not self.drive:
+            return
+        if self.task_time_limit > 0 and now - self.task_started_at > self.task_time_limit:
+            self._finish_task(now, 'failed', f'time limit: {self.detail.split("; executing ")[-1]}')
+            return
+        try:
+            command = self._motor_schema(now)
+        except ValueUnavailable as exc:
+            command = STOP
+            if str(exc) != self._last_unavailable:
+                self._last_unavailable = str(exc)
+                self.get_logger().warning(f'{self.robot}: motor schema waits: {exc}')
+        self._command(command)
+        if self.task_complete:
+            self._finish_task(now, 'completed', self.detail.split('; executing ')[-1])
+
+    def _finish_task(self, now: float, state: str, why: str) -> None:
+        """The task is over (done, or out of time): stop, release the helpers, report."""
+        coalition_id = self.commitment[0]
+        self._command(STOP)
+        self.channel.release(coalition_id, f'task {state}')
+        self.execution = None
+        self.state = state
+        self.detail = f'{self.detail.split("; executing")[0]}; task {state} at {now:.3f} s ({why})'
+        log = self.get_logger().info if state == 'completed' else self.get_logger().error
+        log(f'{self.robot}: task {self.task_name} {state}: {why}; coalition {coalition_id} released')
+        self.agent.keep_only(())
+        self._publish_status()
+        self._own_done = True
+        self._maybe_finish()
+
+    def _on_other_status(self, robot: str, msg) -> None:
+        if msg.state in ('completed', 'failed'):
+            self.others_done.add(robot)
+            self._maybe_finish()
+
+    def _maybe_finish(self) -> None:
+        if (self.exit_when_done and self._own_done and self.others_done >= set(self.exit_after)
+                and not self.finished.done()):
+            self.finished.set_result(True)
+
+    def _motor_schema(self, now: float) -> Velocity:
+        values = evaluate(self.chosen.lcs, lambda i: self.agent.sensing.value(i, now),
+                          lambda p, i: self._streamed(p, i, now), self.priors, self._headings())
+        by_label: dict[tuple[str, str], dict] = {}
+        for instance, value in values.items():
+            by_label[(instance.label, str(instance.referents[0]) if instance.referents else '')] = value
+        me = by_label[('F_G', self.robot)]
+        if 'yaw' in me:
+            self.heading.measured(me['yaw'])
+        heading = self.heading.fix(me['x'], me['y']) if 'yaw' not in me else self.heading.heading
+        goal = by_label[('F_G', 'goal')]
+        motor_schema = self.agent.task.motor_schema
+        if motor_schema == 'navigate':
+            distance = self.navigate.distance((me['x'], me['y']), (goal['x'], goal['y']))
+            command = self.navigate.command((me['x'], me['y']), heading, (goal['x'], goal['y']))
+            self._phase('done' if command == STOP and distance <= self.navigate.tolerance else 'navigate',
+                        f'distance to goal {distance:.2f} m')
+        else:
+            box = by_label[('F_G', 'box')]
+            pressed = by_label[('F_B', self.robot)]['pressed'] > 0.5
+            teammates = [v['pressed'] > 0.5 for (label, who), v in by_label.items() if label == 'F_B' and who != self.robot]
+            command, state = self.push.command((me['x'], me['y']), heading, (box['x'], box['y']),
+                                               (goal['x'], goal['y']), pressed, all(teammates) if teammates else None)
+            self._phase(state.phase, f'box {state.box_to_goal:.2f} m from the goal')
+        self.heading.commanded(command, self._tick_period)
+        return command
+
+    def _headings(self) -> dict[str, float]:
+        return {} if self.heading.heading is None else {self.robot: self.heading.heading}
+
+    def _streamed(self, provider: str, instance: InformationInstance, now: float,
+                  visiting: frozenset = frozenset()) -> dict | None:
+        """The current value of a CS leaf: a teammate's stream, or for a request this robot
+        answered itself (footnote 10) its own cheapest answer that can be computed now
+        (``visiting``: the self-answers being computed, so an answer never feeds itself)."""
+        if provider != self.robot:
+            return self.stream.value(provider, instance, now)
+        if instance in visiting:
+            return None
+        inner = visiting | {instance}
+        for lcs in self.agent.own_answers(instance):
+            try:
+                return evaluate(lcs, lambda i: self.agent.sensing.value(i, now),
+                                lambda p, i: self._streamed(p, i, now, inner), self.priors,
+                                self._headings())[instance]
+            except ValueUnavailable:
+                continue
+        return None
+
+    def _phase(self, phase: str, detail: str) -> None:
+        if phase == self.ms_phase:
+            return
+        self.ms_phase = phase
+        self.task_complete = phase == 'done'
+        self.get_logger().info(f'{self.robot}: motor schema {self.agent.task.motor_schema}: {phase} ({detail})')
+        self.detail = f'{self.detail.split("; executing")[0]}; executing {phase}: {detail}'
+        self._publish_status()
+
+    def _help(self, now: float) -> None:
+        """A committed helper's MS maintain_relative_position: keep the leader where it was seen."""
+        leader = self.commitment[1]
+        seen = None
+        if 'fiducial' in self.agent.sensing.sensors:
+            seen = self.agent.sensing.value(InformationInstance('F_R', (Entity(leader, robot=True),
+                                                                        Entity(self.robot, robot=True))), now)
+        if seen is not None and self.follow is None:
+            self.follow = MaintainRelativePosition((seen['x'], seen['y']), max_speed=self.navigate.max_speed)
+            self.get_logger().info(f'{self.robot}: keeping {leader} at ({seen["x"]:.2f}, {seen["y"]:.2f}) m')
+        pressed = None
+        if self.team_motor_schema == 'push_box_cooperatively' and 'bumper' in self.agent.sensing.sensors:
+            bumper = self.agent.sensing.value(InformationInstance('F_B', (Entity(self.robot, robot=True),)), now)
+            pressed = None if bumper is None else bumper['pressed'] > 0.5
+        if self.follow is not None:
+            self._command(self.follow.command(None if seen is None else (seen['x'], seen['y']), pressed))
+
+    def _command(self, command: Velocity) -> None:
+        if self.cmd_pub is not None:
+            self.cmd_pub.publish(Twist(linear=Vector3(x=command.linear), angular=Vector3(z=command.angular)))
+
+    def _reform(self, now: float, check) -> None:
+        coalition_id = self.commitment[0]
+        self._command(STOP)
+        self.get_logger().warning(f'{self.robot}: coalition {coalition_id} infeasible for {check.infeasible_for:.2f} s '
+                                  f"({'; '.join(check.missing)}): releasing it")
+        self.channel.release(coalition_id, 'information stopped: ' + '; '.join(check.missing))
+        self.commitment, self.execution, self.chosen, self.negotiation = None, None, None, None
+        self.stream.forget()
+        self.ms_phase = ''
+        if self._reforms >= self.max_reforms:
+            self.state = 'failed'
+            self.detail = f'coalition {coalition_id} lost ({"; ".join(check.missing)}); {self._reforms} re-form(s) used'
+            self.get_logger().error(f'{self.robot}: {self.detail}')
+            self.agent.keep_only(())
+            self._publish_status()
+            self._own_done = True
+            self._maybe_finish()
+            return
+        self._reforms += 1
+        self.get_logger().info(f'{self.robot}: re-forming ({self._reforms}/{self.max_reforms})'
+                               + (f" without {', '.join(check.lost_helpers)}" if check.lost_helpers else ''))
+        self.started_at = now
+        self.state = 'searching'
+        self.agent.restart(exclude=check.lost_helpers)
+        self._publish_status()
+
     def _propose_next(self, now: float) -> None:
+        if not self.candidates and self.drive and self._attempts and self._reforms < self.max_reforms:
+            # A driving leader whose candidates were all refused (their robots busy) searches again:
+            # robots free up when other tasks end.
+            self._reforms += 1
+            self.get_logger().warning(f'{self.robot}: no coalition could be set up; searching again '
+                                      f'({self._reforms}/{self.max_reforms})')
+            self.started_at = now
+            self.state = 'searching'
+            self.agent.restart()
+            self._publish_status()
+            return
         while self.candidates:
             candidate = self.candidates.pop(0)
             self._attempts += 1
@@ -344,22 +645,25 @@ class SchemaAgentNode(Node):
         self.get_logger().error(f'{self.robot}: {self.detail}')
         self.agent.keep_only(())
         self._publish_status()
-        if self.exit_when_done and not self.finished.done():
-            self.finished.set_result(True)
+        self._own_done = True
+        self._maybe_finish()
 
     def _established(self, now: float) -> None:
         chosen, negotiation = self.chosen, self.negotiation
         self.formed_at = now
         self.state = 'committed'
         self.commitment = (negotiation.coalition_id, self.robot, chosen.members, chosen.cost)
-        self.agent.keep_only(chosen.sensors())
+        # Its own sensors, and those of the answers it gives itself (footnote 10 self-requests).
+        self.agent.keep_only(chosen.sensors() + self.agent.sensors_serving(self.robot))
+        self.execution = CoalitionExecution(chosen.lcs, now, self.reform_timeout or math.inf)
         self.detail = (f'search started at {self.started_at:.3f} s; formed at {now:.3f} s '
                        f'({now - self.started_at:.3f} s); potential solution {chosen.potential_solution.rank + 1}')
         self.get_logger().info(f'{self.robot}: coalition {negotiation.coalition_id} established: '
                                f'{chosen.describe()}')
         self._publish_status()
-        if self.exit_when_done and not self.finished.done():
-            self.finished.set_result(True)
+        if not self.drive:  # a driving leader is done when its task is
+            self._own_done = True
+            self._maybe_finish()
 
     def _publish_status(self) -> None:
         msg = AgentStatus()
@@ -378,6 +682,26 @@ class SchemaAgentNode(Node):
         msg.dropped = stats['dropped']
         msg.detail = self.detail
         self.status_pub.publish(msg)
+
+
+#: Motor schemas this node can run (the task's ``motor_schema``).
+MOTOR_SCHEMAS = ('navigate', 'push_box_cooperatively')
+
+
+def sensor_values(sensor: str, msg) -> tuple[list[str], dict]:
+    """(detected names, values) of one bridge sensor report (values of information_stream)."""
+    if sensor == 'fiducial':
+        return ([d.name for d in msg.detections],
+                {d.name: {'x': float(d.x), 'y': float(d.y)} for d in msg.detections})
+    if sensor == 'gps':
+        pose = msg.pose.pose
+        q = pose.orientation
+        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        return [], {'x': float(pose.position.x), 'y': float(pose.position.y), 'yaw': yaw}
+    if sensor == 'bumper':
+        return [], {'pressed': 1.0 if msg.pressed else 0.0}
+    ranges = [r for r in msg.ranges if math.isfinite(r)]
+    return [], {'min_range': min(ranges) if ranges else float(msg.range_max)}
 
 
 def main(args=None) -> int:

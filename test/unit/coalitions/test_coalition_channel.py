@@ -12,8 +12,8 @@ import pytest
 from scipy import stats
 
 from coalition_agents.core.channel_codec import (
-    ChannelCodec, ChannelMessage, MessageKind, OfferSummary, commit_request_message, offer_message,
-    release_message, reply_message, request_message,
+    ChannelCodec, ChannelMessage, MessageKind, OfferSummary, commit_request_message, information_message,
+    offer_message, release_message, reply_message, request_message,
 )
 from coalition_agents.core.errors import ConfigError, RequestError
 from coalition_agents.core.link_model import PRESETS, LinkModel
@@ -113,6 +113,8 @@ def sample_messages(library):
         release_message('robot_1', 43, 'robot_2', 'robot_1/1', 'done'),
         ChannelMessage(MessageKind.REQUEST, 44, 'robot_5', request=InformationRequest(
             'robot_5', label(library, 'F_M'))),
+        information_message('robot_2', 45, 'robot_1', 'robot_1/1', label(library, 'F_G(robot_2)'),
+                            {'x': 1.0, 'y': 2.0}),
     ]
 
 

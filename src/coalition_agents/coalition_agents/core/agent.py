@@ -19,6 +19,10 @@ Per robot, as in Algorithm 2:
    each subscriber is sent every instance it can now get more cheaply than before;
 4. ``coalitions`` instantiates the task's potential solutions: the feasible ones, cheapest first.
 
+While a coalition executes, ``served_answers`` names what a helper streams to its coalition and
+``own_answers`` how a robot computes the answers it gives itself (footnote 10); ``restart``
+searches again when the leader re-forms (:mod:`.coalition_execution`).
+
 Choices where the paper is silent (ours):
 
 * What the sensors retrieve comes from their live reports (:class:`~.live_sensing.LiveSensing`:
@@ -144,6 +148,8 @@ class SchemaAgent:
         #: request label -> (provider, instance) -> (offer, members)
         self.offers: dict[InformationInstance, dict[tuple[str, InformationInstance], tuple[InformationOffer, tuple[str, ...]]]] = {}
         self._local: list[InformationRequest] = []
+        #: robots left out of the coalitions of the current search (see :meth:`restart`)
+        self.excluded: frozenset[str] = frozenset()
         self.requests_sent = 0
         self.offers_received = 0
         self.offers_sent = 0
@@ -162,6 +168,20 @@ class SchemaAgent:
         self._activate(sensor for sensor, _ in plan.sensors)
         self._send(plan.requests)
 
+    def restart(self, exclude: Iterable[str] = ()) -> None:
+        """Search again (re-forming a coalition that stopped being feasible): forget the offers
+        and the requests sent for the own task, then :meth:`start`. Teammates answer the new
+        requests from their existing reply spaces with every instance they can provide now.
+        Coalitions with a robot of ``exclude`` (helpers that stopped serving; a teammate may still
+        offer information it once got from them) are not :meth:`coalitions` of this search."""
+        if self.task is None:
+            return
+        self.excluded = frozenset(exclude)
+        self.offers.clear()
+        self.reasoner.ledger.sent.clear()
+        self.root = []
+        self.start()
+
     # Serving requests --------------------------------------------------------------------------------
     def on_request(self, request: InformationRequest, reply_to: object) -> int:
         """Serve ``request`` (already validated by the codec); returns how many variants this
@@ -176,6 +196,11 @@ class SchemaAgent:
                 for solution in space.solutions:
                     self._activate(sensor for sensor, _ in self.reasoner.sensing_needs(solution))
                     self._send(self.reasoner.requests_to_send(solution, chain))
+            else:
+                # A repeated search (a re-forming leader): the sensors may have been switched off
+                # when this robot was released; its own requests stand (Distinct Requests).
+                for solution in space.solutions:
+                    self._activate(sensor for sensor, _ in self.reasoner.sensing_needs(solution))
             space.subscribers.append((request, reply_to))
         return len(variants)
 
@@ -252,6 +277,8 @@ class SchemaAgent:
             for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers):
                 cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs), self.helper_motor_schema_cost,
                                                            root_is_helped=True)
+                if self.excluded.intersection(members):
+                    continue
                 found.append(FeasibleCoalition(lcs, members, cost))
         found.sort(key=lambda c: (c.cost, c.potential_solution.rank, c.members, tuple(c.lcs.step_lines())))
         return found
@@ -266,6 +293,27 @@ class SchemaAgent:
             for _, _, lcs in space.best.values():
                 sensors.update((step.schema, None) for step, _, _ in lcs.sources if step.kind is SchemaKind.ES_EPS)
         return tuple(sensors)
+
+    def served_answers(self, requesters: Iterable[str]) -> list[tuple[str, InformationInstance, LocalCoalitionSolution]]:
+        """(requester, answer, LCS) of every cheapest answer this robot can give now to a request
+        of one of ``requesters``: what it streams while it helps their coalition."""
+        wanted = set(requesters)
+        served: dict[tuple[str, InformationInstance], LocalCoalitionSolution] = {}
+        for space in self.spaces.values():
+            for request, _ in space.subscribers:
+                if request.requester not in wanted:
+                    continue
+                for answer, (_, _, lcs) in space.best.items():
+                    if answers_request(answer, request.label):
+                        served.setdefault((request.requester, answer), lcs)
+        return [(requester, answer, lcs) for (requester, answer), lcs in served.items()]
+
+    def own_answers(self, instance: InformationInstance) -> list[LocalCoalitionSolution]:
+        """The LCSs of this robot's current ways to provide ``instance`` (its reply spaces' best
+        answers), cheapest first: how a self-request (footnote 10) is evaluated while the
+        coalition runs."""
+        found = [best[instance] for best in (space.best for space in self.spaces.values()) if instance in best]
+        return [lcs for _, _, lcs in sorted(found, key=lambda entry: entry[0])]
 
     def keep_only(self, sensors: Iterable[str]) -> None:
         """Deactivate every temporarily activated sensor not in ``sensors``; activate those."""

@@ -12,6 +12,9 @@ COMMIT_REQUEST     join coalition ``coalition_id`` (members, cost, hold time)
 COMMIT_ACCEPT/     the answer to a COMMIT_REQUEST (it acknowledges it too)
 COMMIT_REJECT
 RELEASE            the leader frees a helper from ``coalition_id``
+INFORMATION        a streamed value of an instance a helper provides to coalition ``coalition_id``
+                   (``instance``, ``values``; not acknowledged: the latest value wins,
+                   :mod:`.information_stream`)
 =================  ============================================================================
 
 An offer on the wire carries the provided instance, the helper coalition's cost and members,
@@ -41,6 +44,7 @@ from .information import (
     IDENTIFIER_PATTERN, VARIABLE_PATTERN, EntityCatalog, InformationInstance, InformationTypes, Variable,
     canonical_instance,
 )
+from .information_stream import check_value
 from .requests import InformationRequest
 from .validation import describe_type
 
@@ -58,6 +62,7 @@ class MessageKind(enum.IntEnum):
     COMMIT_ACCEPT = 5
     COMMIT_REJECT = 6
     RELEASE = 7
+    INFORMATION = 8
 
     @property
     def text(self) -> str:
@@ -80,6 +85,7 @@ KIND_FIELDS: dict[MessageKind, tuple[str, ...]] = {
     MessageKind.COMMIT_ACCEPT: ('coalition_id',),
     MessageKind.COMMIT_REJECT: ('coalition_id', 'reason'),
     MessageKind.RELEASE: ('coalition_id', 'reason'),
+    MessageKind.INFORMATION: ('instance', 'coalition_id', 'values'),
 }
 #: Kinds that must name what they answer.
 REPLY_KINDS = frozenset({MessageKind.OFFER, MessageKind.ACK, MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT})
@@ -114,6 +120,9 @@ class ChannelMessage:
     cost: float = 0.0
     hold_seconds: float = 0.0
     reason: str = ''
+    #: INFORMATION: the instance's value, (field, number) pairs (information_stream.VALUE_FIELDS)
+    instance: InformationInstance | None = None
+    values: tuple[tuple[str, float], ...] = ()
 
     def __str__(self) -> str:
         to = self.receiver or '*'
@@ -122,6 +131,8 @@ class ChannelMessage:
             detail = f' {self.request.label}'
         elif self.offer is not None:
             detail = f' {self.offer.instance} (cost {self.offer.cost:g})'
+        elif self.instance is not None:
+            detail = f' {self.instance} = {dict(self.values)}'
         elif self.coalition_id:
             detail = f' {self.coalition_id}'
         reply = f' re {self.in_reply_to}' if self.in_reply_to else ''
@@ -151,7 +162,10 @@ class ChannelMessage:
                 data['chain'] = [{'requester': robot, 'label': instance_to_dict(label)}
                                  for robot, label in self.request.chain]  # type: ignore[union-attr]
             elif name == 'instance':
-                data['instance'] = instance_to_dict(self.offer.instance)  # type: ignore[union-attr]
+                instance = self.instance if self.kind is MessageKind.INFORMATION else self.offer.instance  # type: ignore[union-attr]
+                data['instance'] = instance_to_dict(instance)  # type: ignore[arg-type]
+            elif name == 'values':
+                data['values'] = dict(self.values)
             elif name == 'cost':
                 data['cost'] = self.offer.cost if self.kind is MessageKind.OFFER else self.cost  # type: ignore[union-attr]
             elif name == 'members':
@@ -252,6 +266,15 @@ class ChannelCodec:
                                    f'(got {list(fields["members"])})')
             fields['cost'] = self._cost(data['cost'], f'{path}.cost')
             fields['hold_seconds'] = self._cost(data['hold_seconds'], f'{path}.hold_seconds')
+        elif kind is MessageKind.INFORMATION:
+            if receiver == '':
+                raise RequestError(f"{path}.receiver: an information message goes to one robot (got '')")
+            instance = self._instance(data['instance'], f'{path}.instance')
+            if not instance.is_fully_instantiated:
+                raise RequestError(f'{path}.instance: streamed information has every referent instantiated '
+                                   f'(got {instance})')
+            fields['instance'] = instance
+            fields['values'] = tuple(check_value(instance.label, data['values'], f'{path}.values').items())
         if 'coalition_id' in data:
             fields['coalition_id'] = self._coalition_id(data['coalition_id'], f'{path}.coalition_id')
         if 'reason' in data:
@@ -391,6 +414,13 @@ def release_message(leader: str, message_id: int, receiver: str, coalition_id: s
     return ChannelMessage(MessageKind.RELEASE, message_id, leader, receiver, coalition_id=coalition_id, reason=reason)
 
 
+def information_message(sender: str, message_id: int, receiver: str, coalition_id: str,
+                        instance: InformationInstance, values: Mapping[str, float]) -> ChannelMessage:
+    """A streamed value of ``instance`` for ``receiver`` in coalition ``coalition_id``."""
+    return ChannelMessage(MessageKind.INFORMATION, message_id, sender, receiver, coalition_id=coalition_id,
+                          instance=instance, values=tuple((name, float(v)) for name, v in values.items()))
+
+
 def reply_message(kind: MessageKind, message_id: int, sender: str, to: ChannelMessage, *,
                   coalition_id: str = '', reason: str = '') -> ChannelMessage:
     """An ACK, COMMIT_ACCEPT or COMMIT_REJECT answering ``to``."""
@@ -400,6 +430,6 @@ def reply_message(kind: MessageKind, message_id: int, sender: str, to: ChannelMe
 
 __all__ = [
     'ACKNOWLEDGED_KINDS', 'COMMIT_ANSWERS', 'COMMON_FIELDS', 'KIND_FIELDS', 'MAX_MESSAGE_ID', 'ChannelCodec',
-    'ChannelMessage', 'MessageKind', 'OfferSummary', 'commit_request_message', 'instance_to_dict',
+    'ChannelMessage', 'MessageKind', 'OfferSummary', 'commit_request_message', 'information_message', 'instance_to_dict',
     'offer_message', 'release_message', 'reply_message', 'request_message',
 ]

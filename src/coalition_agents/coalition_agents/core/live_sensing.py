@@ -11,14 +11,19 @@ a report means the information is retrieved.
 Choice (the paper is silent): a reading is current for ``timeout_s`` after the sensor's last
 report; a new report of a sensor replaces its readings (a fiducial that stops seeing a robot
 stops providing F_R for it).
+
+A report may also carry the readings' values (``values``: per detected name for a one-variable
+sensor, one value otherwise; the planar values of :mod:`.information_stream`): what a coalition
+streams and its motor schema uses while it executes (:meth:`LiveSensing.value`).
 """
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Iterable, Mapping
 
 from .capabilities import RobotCapabilities
 from .errors import ConfigError
 from .information import Entity, InformationInstance
+from .information_stream import check_value
 from .requests import to_absolute
 
 
@@ -40,14 +45,18 @@ class LiveSensing:
         self.entities.update({name: Entity(name, robot=False) for name in objects})
         self.timeout_s = timeout_s
         self._reports: dict[str, tuple[tuple[InformationInstance, ...], float]] = {}
+        self._values: dict[InformationInstance, tuple[dict, float]] = {}
 
     @property
     def sensors(self) -> tuple[str, ...]:
         return tuple(self.labels)
 
-    def report(self, sensor: str, now: float, detected: Iterable[str] = ()) -> tuple[InformationInstance, ...]:
+    def report(self, sensor: str, now: float, detected: Iterable[str] = (),
+               values: Mapping[str, Mapping[str, float]] | Mapping[str, float] | None = None,
+               ) -> tuple[InformationInstance, ...]:
         """Record a report of ``sensor`` at ``now``; ``detected`` names what a one-variable sensor
-        saw. Returns the instances retrieved."""
+        saw; ``values`` (optional) their values by name, or the one value of a sensor whose label
+        has no variable. Returns the instances retrieved."""
         if sensor not in self.labels:
             raise ConfigError(f"sensor '{sensor}': {self.robot} has no such sensor (sensors: {', '.join(self.labels)})")
         names = list(dict.fromkeys(detected))
@@ -55,7 +64,10 @@ class LiveSensing:
         for label in self.labels[sensor]:
             variables = label.variables
             if not variables:
-                found.append(to_absolute(label, self.robot))
+                instance = to_absolute(label, self.robot)
+                found.append(instance)
+                if values is not None:
+                    self._values[instance] = (check_value(instance.label, values, f'{sensor} value'), now)
                 continue
             for name in names:
                 entity = self.entities.get(name)
@@ -64,6 +76,9 @@ class LiveSensing:
                 instance = to_absolute(label.substitute({variables[0]: entity}), self.robot)
                 if not instance.is_degenerate:
                     found.append(instance)
+                    if values is not None and name in values:
+                        self._values[instance] = (check_value(instance.label, values[name],
+                                                              f'{sensor} value of {name}'), now)
         readings = tuple(dict.fromkeys(found))
         self._reports[sensor] = (readings, now)
         return readings
@@ -72,6 +87,17 @@ class LiveSensing:
         """sensor -> instances of every sensor reported within ``timeout_s`` of ``now``."""
         return {sensor: readings for sensor, (readings, stamp) in self._reports.items()
                 if now - stamp <= self.timeout_s}
+
+    def value(self, instance: InformationInstance, now: float) -> dict | None:
+        """The current value of one of this robot's readings (None: none, or older than the
+        timeout, or no longer reported: a fiducial that stopped seeing the entity)."""
+        kept = self._values.get(instance)
+        if kept is None or now - kept[1] > self.timeout_s:
+            return None
+        for sensor, (readings, _) in self._reports.items():
+            if instance in readings:
+                return kept[0]
+        return None
 
     def readings(self, robot: str, sensor: str, now: float | None = None) -> tuple[InformationInstance, ...]:
         """The SensingModel interface (``now`` None: the latest report, however old)."""

@@ -358,6 +358,10 @@ class ReliableChannel:
             return Received()
         if message.kind is MessageKind.ACK or message.kind in COMMIT_ANSWERS:
             return self._on_answer(message, now)
+        if message.kind is MessageKind.INFORMATION:
+            # Streamed values are never retried, so never duplicated: no memory of them is kept.
+            self.stats.delivered += 1
+            return Received(message)
         seen = self._seen.get(message.key)
         if seen is not None:
             self.stats.duplicates += 1

@@ -1,0 +1,216 @@
+"""``scripts/experiment coalition-boxpush``: executable coalitions end to end in simulation.
+
+The paper's Sec. V-A5 (Fig. 10/11): five robots of three types; the box-pushing leader forms a
+coalition with a teammate whose bumper it needs, the robot that cannot localise forms one with a
+GPS robot that sees it, the helpers stream what they committed to and the motor schemas drive.
+Each run is config/experiments/coalition_boxpush.yaml (bridge + five schema_agent nodes, recorded)
+with the agent channel's loss probability as an override; everything reported is read back from
+the bag (:func:`read_run`):
+
+* the coalitions formed (from the agents' /<robot>/coalition status), each leader's time from
+  the start of its search to its first coalition, the re-formings and the final states;
+* ground truth (/ground_truth/bodies): the box's and the navigating robot's final distances to
+  their goals, and every trajectory (the plot);
+* the channel traffic (/coalition/channel) by message kind;
+* conflicts: a robot whose status moves from one coalition to another without being released in
+  between held two commitments (the CommitmentLedger forbids it; this checks it from outside).
+
+``results.json``: ``runs`` (one per loss probability) with ``coalitions``, ``robots`` (final
+state, coalition and detail per robot), ``box`` and ``navigation`` (final ground-truth distance to
+the goal, ``completed`` as reported by the leader, ``reached`` = within the goal tolerance),
+``time_to_form_s`` per leader, ``messages`` by kind, ``conflicts``; ``passed`` when every run got
+the box and the navigating robot to their goals without a conflict.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Callable
+
+import yaml
+from collab_tools.core.bag_analysis import read_messages
+from collab_tools.orchestration.experiment import load_experiment, run_experiment
+
+from .core.channel_codec import MessageKind
+
+EXPERIMENT = 'coalition_boxpush.yaml'
+BOX = 'box'
+GROUND_TRUTH = '/ground_truth/bodies'
+CHANNEL = '/coalition/channel'
+#: The two tasks of the scenario: leader robot -> what it does.
+BOX_TASK, NAVIGATION_TASK = 'box_pushing_to_goal', 'navigation'
+
+Log = Callable[[str], None]
+
+
+def agent_nodes(experiment: dict) -> dict[str, dict]:
+    """robot -> merged inline parameters of its schema_agent node in the experiment file."""
+    agents = {}
+    for node in experiment['nodes']:
+        if node.get('executable') != 'schema_agent':
+            continue
+        params: dict = {}
+        for entry in node.get('parameters', []):
+            if isinstance(entry, dict):
+                params.update(entry)
+        if 'robot' not in params:
+            raise ValueError(f"experiment node {node.get('name')}: parameters need 'robot'")
+        agents[params['robot']] = {**params, 'node': node.get('name', f"schema_agent_{params['robot']}")}
+    return agents
+
+
+def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
+    """Everything the results report about one run, from its bag (see the module docstring)."""
+    robots = list(agents)
+    status_topics = {f'/{robot}/coalition': robot for robot in robots}
+    statuses: dict[str, list] = {robot: [] for robot in robots}
+    trajectories: dict[str, list[tuple[float, float, float]]] = {}
+    messages: dict[str, int] = {}
+    for topic, stamp, msg in read_messages(bag, [GROUND_TRUTH, CHANNEL, *status_topics]):
+        t = stamp * 1e-9
+        if topic == GROUND_TRUTH:
+            sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            for body in msg.bodies:
+                if body.name in agents or body.name == BOX:
+                    trajectories.setdefault(body.name, []).append((sim_t, body.pose.position.x, body.pose.position.y))
+        elif topic == CHANNEL:
+            try:
+                kind = MessageKind(msg.kind).text
+            except ValueError:
+                kind = f'unknown_{msg.kind}'
+            messages[kind] = messages.get(kind, 0) + 1
+        else:
+            sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            statuses[status_topics[topic]].append(
+                {'t': sim_t, 'wall': t, 'state': msg.state, 'coalition_id': msg.coalition_id, 'leader': msg.leader,
+                 'members': list(msg.members), 'cost': msg.cost, 'detail': msg.detail})
+    coalitions: dict[str, dict] = {}
+    conflicts = []
+    for robot, history in statuses.items():
+        held = ''
+        for entry in history:
+            cid = entry['coalition_id']
+            if cid and entry['state'] == 'committed' and cid not in coalitions and entry['leader'] == robot:
+                coalitions[cid] = {'leader': robot, 'members': entry['members'], 'cost': entry['cost'],
+                                   'established_at_s': round(entry['t'], 3)}
+            if cid and held and cid != held:
+                conflicts.append({'robot': robot, 'from': held, 'to': cid, 't': entry['t']})
+            held = cid
+    leaders = {robot: params for robot, params in agents.items() if params.get('task', 'none') != 'none'}
+    time_to_form = {}
+    for robot in leaders:
+        started = next((e['t'] for e in statuses[robot] if e['state'] == 'searching'), None)
+        formed = next((e['t'] for e in statuses[robot] if e['state'] == 'committed' and e['coalition_id']), None)
+        time_to_form[robot] = None if started is None or formed is None else round(formed - started, 3)
+    final = {robot: (history[-1] if history else {'state': 'no status', 'coalition_id': '', 'detail': ''})
+             for robot, history in statuses.items()}
+
+    def outcome(leader: str, body: str) -> dict:
+        goal = [float(v) for v in leaders[leader]['goal_position']]
+        path = trajectories.get(body, [])
+        if not path:
+            return {'leader': leader, 'goal': goal, 'final_distance_m': None, 'completed': False, 'reached': False}
+        _, x, y = path[-1]
+        distance = math.hypot(goal[0] - x, goal[1] - y)
+        return {'leader': leader, 'goal': goal, 'final_position': [round(x, 3), round(y, 3)],
+                'final_distance_m': round(distance, 3), 'completed': final[leader]['state'] == 'completed',
+                'reached': distance <= goal_tolerance, 'leader_detail': final[leader]['detail']}
+
+    box_leader = next(r for r, p in leaders.items() if p['task'] == BOX_TASK)
+    nav_leader = next(r for r, p in leaders.items() if p['task'] == NAVIGATION_TASK)
+    reforms = {robot: sum(1 for a, b in zip(statuses[robot], statuses[robot][1:])
+                          if a['state'] == 'committed' and b['state'] == 'searching') for robot in leaders}
+    return {
+        'coalitions': coalitions,
+        'time_to_form_s': time_to_form,
+        'reforms': reforms,
+        'robots': {robot: {'state': entry['state'], 'coalition_id': entry['coalition_id'],
+                           'detail': entry['detail']} for robot, entry in final.items()},
+        'box': outcome(box_leader, BOX),
+        'navigation': outcome(nav_leader, nav_leader),
+        'messages': messages,
+        'conflicts': conflicts,
+        'trajectories': {name: [[round(v, 3) for v in point] for point in path[::5]]
+                         for name, path in trajectories.items()},
+    }
+
+
+def plot_run(run: dict, path: Path, title: str) -> None:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    for name, points in sorted(run['trajectories'].items()):
+        xs, ys = [p[1] for p in points], [p[2] for p in points]
+        style = dict(linewidth=3, color='purple') if name == BOX else dict(linewidth=1.5)
+        line, = ax.plot(xs, ys, label=name, **style)
+        ax.plot(xs[0], ys[0], 'o', color=line.get_color())
+        ax.plot(xs[-1], ys[-1], 's', color=line.get_color())
+    for key, marker in (('box', '*'), ('navigation', 'X')):
+        goal = run[key]['goal']
+        ax.plot(goal[0], goal[1], marker, markersize=16, color='black', label=f'{key} goal')
+    ax.set_aspect('equal')
+    ax.set_xlabel('x (m)')
+    ax.set_ylabel('y (m)')
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc='best')
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run_boxpush(config_dir: Path, run_dir: Path, losses: tuple[float, ...] = (0.0, 0.2), seed: int = 0,
+                log: Log = print) -> dict:
+    """One recorded simulation per loss probability (see the module docstring)."""
+    experiment_path = Path(config_dir) / 'experiments' / EXPERIMENT
+    experiment = load_experiment(experiment_path)
+    agents = agent_nodes(experiment)
+    shared = yaml.safe_load((Path(config_dir) / 'coalitions' / 'boxpush_agents.yaml').read_text())
+    goal_tolerance = float(shared['/**']['ros__parameters']['goal_tolerance'])
+    quiet = lambda _text: None  # noqa: E731
+    runs = []
+    for index, loss in enumerate(losses):
+        if not 0.0 <= loss <= 1.0:
+            raise ValueError(f'loss: must be in [0, 1] (got {loss!r})')
+        label = f'loss_{loss:g}'
+        case_dir = Path(run_dir) / label
+        overrides = {params['node']: {'loss_probability': float(loss), 'seed': seed * 100 + index * 10 + position}
+                     for position, params in enumerate(agents.values())}
+        log(f'[coalition-boxpush] {label}: running the simulation ({case_dir})')
+        result = run_experiment(experiment_path, Path(config_dir), run_dir=case_dir, overrides=overrides, log=quiet)
+        if result.bag is None or not result.bag.exists():
+            raise RuntimeError(f'{label}: no bag recorded ({result.message}); logs in {case_dir / "logs"}')
+        run = read_run(result.bag, agents, goal_tolerance)
+        run.update({'loss_probability': loss, 'condition_met': result.condition_met, 'session': result.message})
+        plot_run(run, case_dir / 'trajectories.png', f'coalition box pushing and navigation, loss {loss:g}')
+        log(f"[coalition-boxpush] {label}: box {run['box']['final_distance_m']} m from its goal "
+            f"(completed {run['box']['completed']}), navigation {run['navigation']['final_distance_m']} m "
+            f"(completed {run['navigation']['completed']}); time to form {run['time_to_form_s']}; "
+            f"re-formings {run['reforms']}; conflicts {len(run['conflicts'])}")
+        runs.append(run)
+    results = {
+        'experiment': 'coalition-boxpush', 'goal_tolerance_m': goal_tolerance, 'runs': runs,
+        'passed': all(r['box']['reached'] and r['navigation']['reached'] and not r['conflicts'] for r in runs),
+    }
+    (Path(run_dir) / 'results.json').write_text(json.dumps(results, indent=2))
+    (Path(run_dir) / 'summary.md').write_text(summary_markdown(results))
+    return results
+
+
+def summary_markdown(results: dict) -> str:
+    lines = ['| loss | coalitions | time to form (s) | re-formings | box to goal (m) | box completed | '
+             'navigation to goal (m) | navigation completed | conflicts | messages |',
+             '|---|---|---|---|---|---|---|---|---|---|']
+    for run in results['runs']:
+        coalitions = '; '.join(f"{c['leader']}: {'+'.join(c['members'])} ({c['cost']:g})"
+                               for c in run['coalitions'].values())
+        lines.append(f"| {run['loss_probability']:g} | {coalitions} | {run['time_to_form_s']} | {run['reforms']} | "
+                     f"{run['box']['final_distance_m']} | {run['box']['completed']} | "
+                     f"{run['navigation']['final_distance_m']} | {run['navigation']['completed']} | "
+                     f"{len(run['conflicts'])} | {sum(run['messages'].values())} |")
+    return '\n'.join(lines) + '\n'
+
+
+__all__ = ['agent_nodes', 'plot_run', 'read_run', 'run_boxpush', 'summary_markdown']

@@ -1,0 +1,141 @@
+"""Information values and the stream that keeps a coalition's information flowing (no ROS).
+
+Once a coalition is set up, the information it was formed for has to keep flowing: the paper's
+Fig. 9 shows the "constant information flows (between different robots) required to maintain
+the coalitions" and Fig. 11 (d) robots "helped to achieve localization via constant information
+sharing". The search only handles labels (F_R(robot_1, robot_2)); execution needs their values.
+
+Values (:data:`VALUE_FIELDS`, our choice -- the paper gives no units or frames): planar, SI units,
+a mapping of field name -> float:
+
+=========  ===========================================================================
+F_G(X)     ``x``, ``y``: X's global position (m); optional ``yaw`` (rad), X's heading
+F_R(X, Y)  ``x``, ``y``: X's position in Y's frame (x forward, y left); optional ``yaw``: X's
+           heading relative to Y's (a fiducial that sees position only leaves it out)
+F_B(X)     ``pressed``: 1 when X's bumper touches something, else 0
+F_A(X)     ``min_range``: the shortest range X's laser measures (m)
+F_F(X)     ``force``: the force X exerts along its heading (N)
+F_T(X, Y)  ``torque``: the torque X exerts on Y about Y's centre (N m)
+F_M        no fields (the map is a priori)
+=========  ===========================================================================
+
+A type the table does not name (a library may add types) takes any finite numbers.
+
+:class:`InformationStream` is one robot's record of streamed values: the latest value per
+(provider, instance) wins -- by the provider's sequence number, since links reorder messages --
+and a value is *stale* ``timeout_s`` after it arrived. Streaming is loss-tolerant rather than
+reliable (no ACKs, no retries): a lost sample is replaced by the next one, and a provider that
+stops sending shows up as stale information (what the execution monitor acts on,
+:mod:`.coalition_execution`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+from .errors import RequestError
+from .information import InformationInstance
+from .validation import describe_type
+
+#: label -> (required fields, optional fields)
+VALUE_FIELDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    'F_G': (('x', 'y'), ('yaw',)),
+    'F_R': (('x', 'y'), ('yaw',)),
+    'F_B': (('pressed',), ()),
+    'F_A': (('min_range',), ()),
+    'F_F': (('force',), ()),
+    'F_T': (('torque',), ()),
+    'F_M': ((), ()),
+}
+
+#: How many fields a value of an unlisted type may carry (a bound against oversized messages).
+MAX_FIELDS = 16
+
+
+def check_value(label: str, value: Any, path: str = 'values') -> dict[str, float]:
+    """The value of an instance of type ``label`` as a plain dict of floats; RequestError (a
+    ValueError) naming the field otherwise."""
+    if not isinstance(value, Mapping):
+        raise RequestError(f'{path}: must be a mapping of field name -> number (got {describe_type(value)})')
+    fields = VALUE_FIELDS.get(label)
+    checked: dict[str, float] = {}
+    for name, number in value.items():
+        if not isinstance(name, str) or not name:
+            raise RequestError(f'{path}: field names must be non-empty strings (got {name!r})')
+        if fields is not None and name not in fields[0] + fields[1]:
+            raise RequestError(f"{path}.{name}: unknown field of a {label} value "
+                               f"(allowed: {', '.join(fields[0] + fields[1]) or 'none'})")
+        if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
+            raise RequestError(f'{path}.{name}: must be a finite number (got {describe_type(number)} {number!r})')
+        checked[name] = float(number)
+    if fields is not None:
+        missing = [name for name in fields[0] if name not in checked]
+        if missing:
+            raise RequestError(f'{path}.{missing[0]}: missing required field of a {label} value')
+    elif len(checked) > MAX_FIELDS:
+        raise RequestError(f'{path}: at most {MAX_FIELDS} fields (got {len(checked)})')
+    return checked
+
+
+@dataclass(frozen=True)
+class StreamedValue:
+    """The value of ``instance`` from ``provider``: its ``sequence`` (the provider's message id,
+    increasing) and when it arrived (``received_at``, the receiver's clock)."""
+
+    provider: str
+    instance: InformationInstance
+    value: Mapping[str, float]
+    sequence: int
+    received_at: float
+
+
+class InformationStream:
+    """Latest streamed value per (provider, instance), with stale detection (module docstring)."""
+
+    def __init__(self, timeout_s: float):
+        if isinstance(timeout_s, bool) or not isinstance(timeout_s, (int, float)) or not timeout_s > 0:
+            raise RequestError(f'stream_timeout: must be a number > 0 s (got {timeout_s!r})')
+        self.timeout_s = float(timeout_s)
+        self._latest: dict[tuple[str, InformationInstance], StreamedValue] = {}
+        self.received = 0
+        self.out_of_order = 0
+
+    def update(self, provider: str, instance: InformationInstance, value: Mapping[str, float], sequence: int,
+               now: float) -> bool:
+        """Record a sample; False (and ignored) when a later one of the same information arrived first."""
+        key = (provider, instance)
+        self.received += 1
+        kept = self._latest.get(key)
+        if kept is not None and kept.sequence >= sequence:
+            self.out_of_order += 1
+            return False
+        self._latest[key] = StreamedValue(provider, instance, dict(value), sequence, now)
+        return True
+
+    def value(self, provider: str, instance: InformationInstance, now: float) -> Mapping[str, float] | None:
+        """The current value, or None when none arrived or it is stale."""
+        kept = self._latest.get((provider, instance))
+        if kept is None or now - kept.received_at > self.timeout_s:
+            return None
+        return kept.value
+
+    def age(self, provider: str, instance: InformationInstance, now: float) -> float:
+        """Seconds since the latest value arrived (inf when none did)."""
+        kept = self._latest.get((provider, instance))
+        return math.inf if kept is None else now - kept.received_at
+
+    def stale(self, needed: Iterable[tuple[str, InformationInstance]], now: float) -> list[tuple[str, InformationInstance]]:
+        """The (provider, instance) pairs of ``needed`` without a current value."""
+        return [key for key in needed if self.value(key[0], key[1], now) is None]
+
+    def forget(self, provider: str | None = None) -> None:
+        """Drop every value (of ``provider``): a new coalition starts from fresh samples."""
+        if provider is None:
+            self._latest.clear()
+        else:
+            for key in [key for key in self._latest if key[0] == provider]:
+                del self._latest[key]
+
+
+__all__ = ['InformationStream', 'MAX_FIELDS', 'StreamedValue', 'VALUE_FIELDS', 'check_value']

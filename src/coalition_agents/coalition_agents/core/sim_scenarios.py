@@ -1,0 +1,180 @@
+"""Simulated coalition scenarios as data: robot placements -> bridge scenario, team capability
+file and the hosted agents' parameter file (used by ``coalition_agents.sim_experiments``).
+
+* :func:`column_placements` -- the paper's Fig. 9 column (Section V-A-4): ``robots`` robots in a
+  line along +x, all facing +x (the front), ``spacing_m`` apart; only the front robot (robot_1)
+  localises. The fiducial's field of view and range are chosen by the caller so that each robot
+  sees only the robot immediately ahead (range < 2 x spacing; the bridge's ray test adds the
+  occlusion by the robot in between). The robot at the back (robot_N) runs the navigation task;
+  every other robot is a helper.
+* :func:`placements_from_poses` -- any layout given as poses (the Fig. 7 clusters of
+  ``config/coalitions/scenarios/fig7.yaml``).
+* :func:`bridge_scenario` -- the pybullet_bridge scenario (``config/scenarios`` format) of the
+  placements: every robot with the bridge sensors its type has, all inactive (the agents switch on
+  what their potential solutions need).
+* :func:`capability_file` -- the team capability file (``config/coalitions/capabilities`` format)
+  with the bridge's sensor names (``sensor_names`` renames, e.g. the paper's ``localization`` to
+  the bridge's ``gps``).
+* :func:`agent_parameter_file` -- the ROS 2 parameter file of the hosted schema_agent nodes.
+
+Choices (the paper gives no geometry for Fig. 9): 1 m spacing, fiducial FOV 60 deg and range
+1.5 m; robots of the Table IV types (type 2 in front, type 1 behind).
+"""
+from __future__ import annotations
+
+import colorsys
+import math
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+from .errors import ConfigError
+
+#: Sensors the bridge simulates (pybullet_bridge sensor names).
+BRIDGE_SENSORS = ('fiducial', 'laser', 'gps', 'bumper')
+
+
+@dataclass(frozen=True)
+class Placement:
+    """One robot: position (m), heading (deg, 0 = +x, counter-clockwise) and its type in the team."""
+
+    robot: str
+    x: float
+    y: float
+    heading_deg: float
+    robot_type: str
+
+
+@dataclass(frozen=True)
+class SensorSettings:
+    """Bridge sensor settings shared by every robot that has the sensor."""
+
+    fiducial_fov_deg: float = 180.0
+    fiducial_range_m: float = 4.0
+    rate_hz: float = 10.0
+    laser_beams: int = 31
+    laser_range_m: float = 6.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.fiducial_fov_deg <= 360.0:
+            raise ConfigError(f'fiducial.fov_deg: must be in (0, 360] (got {self.fiducial_fov_deg})')
+        for name, value in (('fiducial.range_m', self.fiducial_range_m), ('rate_hz', self.rate_hz),
+                            ('laser.range_m', self.laser_range_m)):
+            if not value > 0.0:
+                raise ConfigError(f'{name}: must be > 0 (got {value})')
+        if self.laser_beams < 1:
+            raise ConfigError(f'laser.beams: must be >= 1 (got {self.laser_beams})')
+
+
+#: Table IV's robot types with the bridge's sensor names.
+COLUMN_TYPES = {
+    'localizer': {'description': 'fiducial, laser, GPS, motor (Table IV type 2)',
+                  'sensors': [{'name': 'fiducial', 'provides': ['F_R(X, local)']},
+                              {'name': 'laser', 'provides': ['F_A(local)']},
+                              {'name': 'gps', 'provides': ['F_G(local)']}],
+                  'motor_schemas': ['navigate', 'maintain_relative_position']},
+    'blind': {'description': 'fiducial, laser, motor; cannot localise (Table IV type 1)',
+              'sensors': [{'name': 'fiducial', 'provides': ['F_R(X, local)']},
+                          {'name': 'laser', 'provides': ['F_A(local)']}],
+              'motor_schemas': ['navigate', 'maintain_relative_position']},
+}
+
+
+def column_placements(robots: int, spacing_m: float = 1.0) -> list[Placement]:
+    """Fig. 9: robot_1 in front at x = 0 localises; robot_k stands (k-1) spacings behind it."""
+    if isinstance(robots, bool) or not isinstance(robots, int) or robots < 2:
+        raise ConfigError(f'robots: a column needs an integer >= 2 robots (got {robots!r})')
+    if not spacing_m > 0.0:
+        raise ConfigError(f'spacing_m: must be > 0 (got {spacing_m!r})')
+    return [Placement(f'robot_{k}', -spacing_m * (k - 1), 0.0, 0.0, 'localizer' if k == 1 else 'blind')
+            for k in range(1, robots + 1)]
+
+
+def column_sees_only_the_robot_ahead(spacing_m: float, sensors: SensorSettings) -> bool:
+    """Whether the fiducial reaches the robot ahead and (without counting occlusion) no further,
+    and does not look behind."""
+    return spacing_m <= sensors.fiducial_range_m < 2.0 * spacing_m and sensors.fiducial_fov_deg < 360.0
+
+
+def placements_from_poses(poses: Mapping[str, tuple[float, float, float]], robot_types: Mapping[str, str]) -> list[Placement]:
+    """Placements of ``robot -> (x, y, heading_deg)`` with each robot's type."""
+    missing = [robot for robot in poses if robot not in robot_types]
+    if missing:
+        raise ConfigError(f'robots.{missing[0]}: no type for this robot')
+    return [Placement(robot, float(x), float(y), float(h), robot_types[robot]) for robot, (x, y, h) in poses.items()]
+
+
+def _colour(index: int, count: int) -> list[float]:
+    # Hues spread around the circle: the bridge requires colours at least 0.1 apart.
+    r, g, b = colorsys.hsv_to_rgb(index / max(count, 1), 0.75, 0.85 if index % 2 == 0 else 0.6)
+    return [round(r, 3), round(g, 3), round(b, 3)]
+
+
+def bridge_scenario(name: str, placements: Sequence[Placement], types: Mapping[str, Mapping],
+                    sensors: SensorSettings, seed: int = 0, margin_m: float = 3.0) -> dict:
+    """The pybullet_bridge scenario of ``placements``; ``types`` are capability-file robot types
+    whose sensor names are bridge sensors."""
+    if not placements:
+        raise ConfigError('robots: at least one robot')
+    xs, ys = [p.x for p in placements], [p.y for p in placements]
+    robots = []
+    for index, placement in enumerate(placements):
+        if placement.robot_type not in types:
+            raise ConfigError(f'robots.{placement.robot}: unknown type {placement.robot_type!r} '
+                              f'(types: {", ".join(types)})')
+        section = {}
+        for sensor in types[placement.robot_type]['sensors']:
+            kind = sensor['name']
+            if kind == 'fiducial':
+                section[kind] = {'fov_deg': sensors.fiducial_fov_deg, 'range': sensors.fiducial_range_m,
+                                 'rate': sensors.rate_hz, 'active': False}
+            elif kind == 'laser':
+                section[kind] = {'fov_deg': 180.0, 'beams': sensors.laser_beams, 'range': sensors.laser_range_m,
+                                 'rate': sensors.rate_hz, 'active': False}
+            elif kind in ('gps', 'bumper'):
+                section[kind] = {'rate': sensors.rate_hz, 'active': False}
+            else:
+                raise ConfigError(f'robot_types.{placement.robot_type}.sensors: {kind!r} is not a bridge sensor '
+                                  f'(allowed: {", ".join(BRIDGE_SENSORS)})')
+        robots.append({'name': placement.robot, 'type': 'pioneer_3dx',
+                       'pose': [placement.x, placement.y, round(math.radians(placement.heading_deg), 9)],
+                       'color': _colour(index, len(placements)), 'sensors': section})
+    return {
+        'name': name, 'seed': seed,
+        'world': {'bounds': [min(xs) - margin_m, min(ys) - margin_m, max(xs) + margin_m, max(ys) + margin_m],
+                  'walls': {'height': 0.3, 'thickness': 0.05}},
+        'camera': {'frame_id': 'top_camera', 'rate': 1.0, 'width': 64, 'height': 64, 'altitude': 9.0},
+        'mobile_robots': robots,
+    }
+
+
+def capability_file(placements: Sequence[Placement], types: Mapping[str, Mapping],
+                    sensor_names: Mapping[str, str] | None = None) -> dict:
+    """The team capability file of ``placements``; ``sensor_names`` renames sensors (paper -> bridge)."""
+    renames = dict(sensor_names or {})
+    used = {p.robot_type for p in placements}
+    robot_types = {}
+    for name in sorted(used):
+        if name not in types:
+            raise ConfigError(f'robots: unknown robot type {name!r} (types: {", ".join(types)})')
+        entry = dict(types[name])
+        entry['sensors'] = [{**sensor, 'name': renames.get(sensor['name'], sensor['name'])}
+                            for sensor in types[name]['sensors']]
+        for sensor in entry['sensors']:
+            if sensor['name'] not in BRIDGE_SENSORS:
+                raise ConfigError(f'robot_types.{name}.sensors: {sensor["name"]!r} is not a bridge sensor (allowed: '
+                                  f'{", ".join(BRIDGE_SENSORS)}; rename it with sensor_names)')
+        robot_types[name] = entry
+    return {'robot_types': robot_types, 'robots': {p.robot: p.robot_type for p in placements}}
+
+
+def agent_parameter_file(node_prefix: str, common: Mapping[str, object],
+                         per_robot: Mapping[str, Mapping[str, object]]) -> dict:
+    """ROS 2 parameter file for the hosted schema_agent nodes: ``common`` for all, then per robot."""
+    data: dict = {'/**': {'ros__parameters': dict(common)}}
+    for robot, parameters in per_robot.items():
+        data[f'{node_prefix}{robot}'] = {'ros__parameters': dict(parameters)}
+    return data
+
+
+__all__ = ['BRIDGE_SENSORS', 'COLUMN_TYPES', 'Placement', 'SensorSettings', 'agent_parameter_file', 'bridge_scenario',
+           'capability_file', 'column_placements', 'column_sees_only_the_robot_ahead', 'placements_from_poses']

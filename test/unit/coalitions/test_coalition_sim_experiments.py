@@ -1,0 +1,199 @@
+"""The pure parts of the simulated coalition experiments: the generated scenarios (column,
+clusters) and the results computed from a run's bag (a synthetic bag written with the project's
+bag writer)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from coalition_agents.core import load_capability_file, load_library
+from coalition_agents.core.errors import ConfigError
+from coalition_agents.core.sim_scenarios import (
+    COLUMN_TYPES, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, column_placements,
+    column_sees_only_the_robot_ahead, placements_from_poses,
+)
+
+WORKSPACE = Path(__file__).resolve().parents[3]
+INTERFACES = WORKSPACE / 'interfaces' / 'coalition_interfaces' / 'msg'
+
+
+# --- scenario generation -----------------------------------------------------------------------
+
+def test_column_puts_the_localising_robot_in_front_and_everyone_facing_it():
+    placements = column_placements(4, spacing_m=1.5)
+    assert [p.robot for p in placements] == ['robot_1', 'robot_2', 'robot_3', 'robot_4']
+    assert [p.robot_type for p in placements] == ['localizer', 'blind', 'blind', 'blind']
+    assert [p.x for p in placements] == [0.0, -1.5, -3.0, -4.5]
+    assert all(p.heading_deg == 0.0 and p.y == 0.0 for p in placements)
+
+
+@pytest.mark.parametrize('robots, spacing, message', [(1, 1.0, 'robots'), (True, 1.0, 'robots'),
+                                                      (3, 0.0, 'spacing_m')])
+def test_column_rejects_bad_sizes(robots, spacing, message):
+    with pytest.raises(ConfigError, match=message):
+        column_placements(robots, spacing)
+
+
+def test_fiducial_must_reach_only_the_robot_ahead():
+    assert column_sees_only_the_robot_ahead(1.0, SensorSettings(60.0, 1.5))
+    assert not column_sees_only_the_robot_ahead(1.0, SensorSettings(60.0, 2.0))   # sees two ahead
+    assert not column_sees_only_the_robot_ahead(1.0, SensorSettings(60.0, 0.9))   # sees nobody
+    assert not column_sees_only_the_robot_ahead(1.0, SensorSettings(360.0, 1.5))  # sees behind
+
+
+def test_bridge_scenario_and_team_file_of_a_column_load(library, tmp_path):
+    placements = column_placements(3)
+    sensors = SensorSettings(60.0, 1.5)
+    scenario = bridge_scenario('column', placements, COLUMN_TYPES, sensors, seed=3)
+    robots = {r['name']: r for r in scenario['mobile_robots']}
+    assert set(robots['robot_1']['sensors']) == {'fiducial', 'laser', 'gps'}
+    assert set(robots['robot_3']['sensors']) == {'fiducial', 'laser'}
+    assert robots['robot_2']['sensors']['fiducial'] == {'fov_deg': 60.0, 'range': 1.5, 'rate': 10.0,
+                                                         'active': False}
+    assert not any(s['active'] for r in robots.values() for s in r['sensors'].values())
+    x0, y0, x1, y1 = scenario['world']['bounds']
+    assert x0 < -2.0 and x1 > 0.0 and y0 < 0.0 < y1
+    colours = [r['color'] for r in scenario['mobile_robots']]
+    assert all(sum((a - b) ** 2 for a, b in zip(c1, c2)) ** 0.5 >= 0.1
+               for i, c1 in enumerate(colours) for c2 in colours[i + 1:])
+    team_path = tmp_path / 'team.yaml'
+    team_path.write_text(yaml.safe_dump(capability_file(placements, COLUMN_TYPES)))
+    team = load_capability_file(team_path, library)
+    assert team.robots['robot_1'].sensor_names == ('fiducial', 'laser', 'gps')
+    assert 'gps' not in team.robots['robot_2'].sensor_names
+
+
+def test_clusters_team_renames_the_papers_sensor_names_for_the_bridge(config_dir, library, tmp_path):
+    types = yaml.safe_load((config_dir / 'capabilities' / 'fig7_team.yaml').read_text())['robot_types']
+    placements = placements_from_poses({'robot_red': (0.0, 0.0, 0.0), 'helper_1': (2.5, 0.5, 0.0)},
+                                       {'robot_red': 'type1', 'helper_1': 'type2'})
+    with pytest.raises(ConfigError, match="'localization' is not a bridge sensor"):
+        capability_file(placements, types)
+    team = capability_file(placements, types, {'localization': 'gps'})
+    assert [s['name'] for s in team['robot_types']['type2']['sensors']] == ['fiducial', 'laser', 'gps']
+    path = tmp_path / 'team.yaml'
+    path.write_text(yaml.safe_dump(team))
+    assert load_capability_file(path, library).robots['helper_1'].sensor_names == ('fiducial', 'laser', 'gps')
+    with pytest.raises(ConfigError, match='robots.ghost: no type'):
+        placements_from_poses({'ghost': (0, 0, 0)}, {})
+
+
+def test_agent_parameter_file_is_keyed_by_node_name():
+    data = agent_parameter_file('schema_agent_', {'task': 'none'}, {'robot_2': {'task': 'navigation'}})
+    assert data == {'/**': {'ros__parameters': {'task': 'none'}},
+                    'schema_agent_robot_2': {'ros__parameters': {'task': 'navigation'}}}
+
+
+def test_column_config_errors_name_the_field(tmp_path):
+    from coalition_agents.sim_experiments import load_column_config
+    good = {'robots': [2, 10], 'spacing_m': 1.0, 'fiducial': {'fov_deg': 60.0, 'range_m': 1.5},
+            'search_time_s': {'default': 2.0, 10: 3.0}, 'paper_time_s': {10: 28.0}}
+    path = tmp_path / 'column.yaml'
+    path.write_text(yaml.safe_dump(good))
+    config = load_column_config(path)
+    assert config.robots == (2, 10) and config.search_time(10) == 3.0 and config.search_time(2) == 2.0
+    assert config.paper_time_s == {10: 28.0}
+    for change, message in ((({'fiducial': {'fov_deg': 60.0, 'range_m': 2.5}}), 'fiducial: each robot must see only'),
+                            ({'robots': [1]}, 'robots'), ({'search_time_s': {10: 3.0}}, 'search_time_s.default'),
+                            ({'search_time_s': {'default': 2.0, 'ten': 3.0}}, 'search_time_s.ten'),
+                            ({'colour': 1}, 'colour')):
+        path.write_text(yaml.safe_dump({**good, **change}))
+        with pytest.raises(ConfigError, match=message):
+            load_column_config(path)
+
+
+# --- results from a bag --------------------------------------------------------------------------
+
+@pytest.fixture
+def coalition_bag(tmp_path):
+    """write(path, statuses, messages): a bag with /coalition/channel and /<robot>/coalition.
+
+    statuses: (t, robot, state, task, coalition_id, leader, members, cost);
+    messages: (t, sender, receiver, kind, members)."""
+    pytest.importorskip('rosbags')
+    from collab_tools.core.bag_types import build_typestore
+    from collab_tools.core.bag_writer import BagWriter
+
+    prefix = tmp_path / 'prefix'
+    msg_dir = prefix / 'share' / 'coalition_interfaces' / 'msg'
+    msg_dir.mkdir(parents=True)
+    for source in INTERFACES.glob('*.msg'):
+        (msg_dir / source.name).write_text(source.read_text())
+    status_type, message_type = 'coalition_interfaces/msg/AgentStatus', 'coalition_interfaces/msg/AgentMessage'
+    store = build_typestore([status_type, message_type], prefixes=[prefix])
+    T = store.types
+
+    def header(t):
+        return T['std_msgs/msg/Header'](stamp=T['builtin_interfaces/msg/Time'](sec=int(t), nanosec=int(round((t % 1) * 1e9))),
+                                        frame_id='')
+
+    def info():
+        return T['coalition_interfaces/msg/Information'](type='', referents=[])
+
+    def write(path, statuses, messages):
+        with BagWriter(path, store) as writer:
+            writer.add_topic('/coalition/channel', message_type)
+            for robot in sorted({s[1] for s in statuses}):
+                writer.add_topic(f'/{robot}/coalition', status_type)
+            rows = [(s[0], f'/{s[1]}/coalition', status_type, T[status_type](
+                header=header(s[0]), robot=s[1], state=s[2], task=s[3], coalition_id=s[4], leader=s[5],
+                members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0, duplicates=0,
+                dropped=0, detail='')) for s in statuses]
+            rows += [(m[0], '/coalition/channel', message_type, T[message_type](
+                header=header(m[0]), message_id=i + 1, sender=m[1], receiver=m[2], kind=m[3], conversation_id=0,
+                in_reply_to=0, label=info(), chain=[], instance=info(), cost=0.0, members=list(m[4]), coalition_id='',
+                hold_seconds=0.0, reason='')) for i, m in enumerate(messages)]
+            for t, topic, type_name, msg in sorted(rows, key=lambda r: r[0]):
+                writer.write(topic, int(t * 1e9), bytes(store.serialize_cdr(msg, type_name)))
+        return path
+
+    return write
+
+
+REQUEST, OFFER, ACK = 1, 2, 3
+
+
+def test_column_result_from_a_bag(coalition_bag, tmp_path):
+    from coalition_agents.sim_experiments import column_result, read_coalition_bag
+    members = ('robot_3', 'robot_1', 'robot_2')
+    statuses = [(10.0, 'robot_1', 'idle', 'none', '', '', (), 0), (10.0, 'robot_2', 'idle', 'none', '', '', (), 0),
+                (10.1, 'robot_3', 'searching', 'navigation', '', '', (), 0),
+                (12.2, 'robot_3', 'negotiating', 'navigation', '', '', (), 0),
+                (12.25, 'robot_1', 'committed', 'none', 'c1', 'robot_3', members, 25.5),
+                (12.26, 'robot_2', 'committed', 'none', 'c1', 'robot_3', members, 25.5),
+                (12.3, 'robot_3', 'committed', 'navigation', 'c1', 'robot_3', members, 25.5)]
+    messages = [(10.12, 'robot_3', 'robot_2', REQUEST, ()), (10.12, 'robot_3', 'robot_1', REQUEST, ()),
+                (10.13, 'robot_2', 'robot_3', ACK, ()),
+                (10.4, 'robot_1', 'robot_3', OFFER, ('robot_1',)),            # a partial coalition
+                (10.9, 'robot_2', 'robot_3', OFFER, ('robot_1', 'robot_2')),  # the whole coalition
+                (11.0, 'robot_2', 'robot_3', OFFER, ('robot_1', 'robot_2'))]
+    bag = coalition_bag(tmp_path / 'bag', statuses, messages)
+    run = read_coalition_bag(bag)
+    assert run.leaders() == ['robot_3'] and run.robots() == ['robot_1', 'robot_2', 'robot_3']
+    result = column_result(run, 3, bin_s=0.1)
+    assert result['state'] == 'committed' and result['includes_all_robots']
+    assert result['time_s'] == pytest.approx(0.8, abs=1e-6)        # 10.9 - 10.1
+    assert result['formed_s'] == pytest.approx(2.2, abs=1e-6)      # 12.3 - 10.1
+    assert result['cost'] == 25.5 and result['messages'] == 6
+    assert result['kinds'] == {'request': 2, 'ack': 1, 'offer': 3}
+    counts = result['counts']
+    assert sum(counts['sent']['robot_3']) == 2 and sum(counts['received']['robot_3']) == 4
+    assert counts['sent']['robot_3'][0] == 2 and counts['received']['robot_3'][8] == 1  # 10.9 s -> bin 8
+    assert result['conflicting_commitments'] == {}
+
+
+def test_a_robot_committed_to_two_coalitions_is_reported(coalition_bag, tmp_path):
+    from coalition_agents.sim_experiments import commitments, conflicting_commitments, leader_timeline, read_coalition_bag
+    statuses = [(1.0, 'helper', 'committed', 'none', 'a/1', 'a', ('a', 'helper'), 16),
+                (2.0, 'helper', 'committed', 'none', 'b/1', 'b', ('b', 'helper'), 16),   # no release in between
+                (3.0, 'other', 'committed', 'none', 'a/1', 'a', ('a', 'other'), 16),
+                (4.0, 'other', 'idle', 'none', '', '', (), 0),                            # released
+                (5.0, 'other', 'committed', 'none', 'b/2', 'b', ('b', 'other'), 16),
+                (0.5, 'a', 'searching', 'navigation', '', '', (), 0)]
+    run = read_coalition_bag(coalition_bag(tmp_path / 'bag', statuses, []))
+    assert conflicting_commitments(run) == {'helper': ['a/1', 'b/1']}
+    assert commitments(run) == {'helper': ['a/1', 'b/1'], 'other': ['a/1', 'b/2']}
+    timeline = leader_timeline(run, 'a')   # searched, never committed, no offers
+    assert timeline.state == 'searching' and timeline.found is None and timeline.formed_s is None
