@@ -169,7 +169,7 @@ def bad_settings(tmp_path, config_dir, edit):
 
 @pytest.mark.parametrize('executable, parameters, edit, expected', [
     ('role_engine', {}, None, 'parameter settings_file: required'),
-    ('role_engine', {'settings_file': 'missing.yaml'}, None, 'parameter settings_file: missing.yaml: settings file '
+    ('role_engine', {'settings_file': 'missing.yaml'}, None, "parameter settings_file: settings file 'missing.yaml': "
                                                                'does not exist'),
     ('role_engine', {'exit_when_done': 'yes'}, {}, 'parameter exit_when_done: must be true or false'),
     ('role_engine', {}, {'silence_timeout': -1.0}, 'silence_timeout'),

@@ -54,10 +54,9 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-import yaml
 
 from pybullet_bridge.core.diff_drive import DiffDriveLimits, limit_velocity
-from pybullet_bridge.core.fields import Fields, check_vector, fail, join_path, require_list
+from pybullet_bridge.core.fields import Fields, check_vector, fail, join_path, read_yaml_file, require_list
 from pybullet_bridge.core.scenario import load_scenario
 
 from .core.central import plan_roles
@@ -99,12 +98,7 @@ def load_collab_config(path: str | Path) -> CollabConfig:
     """The validated settings file; ValueError (RoleEngineError / the bridge's field errors) naming the field."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise fail(where, 'settings file does not exist')
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise fail(where, f'not valid YAML ({error})') from None
+    data = read_yaml_file(path, 'settings file')
     fields = Fields(data, where, allowed=TOP_LEVEL_KEYS)
     methods = require_list(fields.raw('methods', list(METHODS)), fields.path_of('methods'))
     for index, method in enumerate(methods):

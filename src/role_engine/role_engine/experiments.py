@@ -53,9 +53,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-import yaml
 
-from pybullet_bridge.core.fields import Fields, check_int, check_number, fail, join_path, require_list
+from pybullet_bridge.core.fields import Fields, check_int, check_number, fail, join_path, read_yaml_file, require_list
 
 from .core.assignment import AssignmentResult, group_role_assignment, nearest_neighbour_assignment
 from .core.environment import Environment, RobotEnvironment, RobotType, load_map_file
@@ -246,12 +245,7 @@ def load_experiment_config(path: str | Path) -> ExperimentConfig:
     """Read and validate the experiments file (format in config/roles/experiments.yaml)."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise fail(where, 'experiments file does not exist')
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise fail(where, f'not valid YAML ({error})') from None
+    data = read_yaml_file(path, 'experiments file')
     fields = Fields(data, where, allowed=('maps_dir', 'environments', 'sigma_obs', 'plot_sigma', 'trajectory', 'gp',
                                           'qualification', 'table3', 'table4', 'benchmark'))
     maps_dir = (path.parent / fields.string('maps_dir')).resolve()

@@ -204,7 +204,7 @@ def test_scenario_must_be_a_mapping():
 
 def test_load_scenario_file_errors_name_the_file(tmp_path):
     missing = tmp_path / 'missing.yaml'
-    with pytest.raises(ScenarioError, match=f"scenario file '{missing}': cannot read"):
+    with pytest.raises(ScenarioError, match=f"scenario file '{missing}': does not exist"):
         load_scenario(missing)
     broken = tmp_path / 'broken.yaml'
     broken.write_text('name: [unclosed\n')

@@ -57,8 +57,11 @@ def test_unreadable_image_and_missing_file_are_clear_errors(tmp_path):
     with pytest.raises(ValueError, match='does not exist'):
         load_map_file(tmp_path / 'nope.yaml')
     (tmp_path / 'bad.yaml').write_text('image: [unclosed\n')
-    with pytest.raises(ValueError, match='not valid YAML'):
+    with pytest.raises(ValueError, match="map file '.*bad.yaml': invalid YAML"):
         load_map_file(tmp_path / 'bad.yaml')
+    (tmp_path / 'empty.yaml').write_text('')
+    with pytest.raises(ValueError, match='file is empty'):
+        load_map_file(tmp_path / 'empty.yaml')
 
 
 @pytest.mark.parametrize('index', range(1, 7))

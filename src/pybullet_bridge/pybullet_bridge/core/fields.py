@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 from typing import Any, Iterable, Mapping
+
+import yaml
 
 from .errors import ScenarioError
 
@@ -30,6 +33,26 @@ def join_path(path: str, key: str | int) -> str:
 def fail(path: str, message: str) -> ScenarioError:
     """Build the error for ``path``; callers ``raise fail(...)`` so flow stays visible."""
     return ScenarioError(f'{path}: {message}')
+
+
+def read_yaml_file(path: str | Path, what: str = 'file') -> Any:
+    """The parsed content of a YAML file; ScenarioError "<what> '<path>': ..." when it is missing,
+    unreadable, not YAML or empty."""
+    path = Path(path)
+    where = f"{what} '{path}'"
+    if not path.exists():
+        raise ScenarioError(f'{where}: does not exist')
+    try:
+        text = path.read_text(encoding='utf-8')
+    except OSError as err:
+        raise ScenarioError(f'{where}: cannot read ({err.strerror or err})') from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ScenarioError(f'{where}: invalid YAML ({err})') from None
+    if data is None:
+        raise ScenarioError(f'{where}: file is empty')
+    return data
 
 
 def type_name(value: Any) -> str:

@@ -156,10 +156,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
-import yaml
-
 from .errors import ScenarioError
-from .fields import Fields, check_name, fail, join_path, require_mapping, type_name
+from .fields import Fields, check_name, fail, join_path, read_yaml_file, require_mapping, type_name
 
 if TYPE_CHECKING:
     from .scene import SceneEntity
@@ -310,16 +308,7 @@ def _ensure_builtin_sections() -> None:
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as err:
-        raise ScenarioError(f"scenario file '{path}': cannot read ({err.strerror or err})") from err
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ScenarioError(f"scenario file '{path}': invalid YAML ({err})") from err
-    if data is None:
-        raise ScenarioError(f"scenario file '{path}': file is empty")
+    data = read_yaml_file(path, 'scenario file')
     try:
         return parse_scenario(data, path.resolve().parent, source=path.resolve())
     except ScenarioError as err:

@@ -23,10 +23,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 from scipy import ndimage
 
-from pybullet_bridge.core.fields import Fields, fail
+from pybullet_bridge.core.fields import Fields, fail, read_yaml_file
 from pybullet_bridge.core.obstacles import read_grey_image
 
 from .errors import RoleEngineError
@@ -187,12 +186,7 @@ def load_map_file(path: str | Path) -> Environment:
     """Read a map YAML (format in the module docstring) and its occupancy image."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise fail(where, 'map file does not exist')
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise fail(where, f'not valid YAML ({error})') from None
+    data = read_yaml_file(path, 'map file')
     fields = Fields(data, where, allowed=MAP_FILE_FIELDS)
     grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)

@@ -35,9 +35,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from pybullet_bridge.core.fields import Fields, fail, join_path
+from pybullet_bridge.core.fields import Fields, fail, join_path, read_yaml_file
 
 from .environment import RobotEnvironment, RobotType
 from .errors import RoleEngineError
@@ -95,12 +94,7 @@ class FormationTask:
 def load_formation_task(path: str | Path) -> FormationTask:
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise fail(where, 'settings file does not exist')
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise fail(where, f'not valid YAML ({error})') from None
+    data = read_yaml_file(path, 'settings file')
     fields = Fields(data, where, allowed=TOP_LEVEL_KEYS)
     scenario = (path.parent / fields.string('scenario')).resolve()
     if not scenario.is_file():
