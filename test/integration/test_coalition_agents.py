@@ -8,7 +8,6 @@ geometry (fields of view and ranges from the scenario file) goes through the nod
 conversion (LiveSensing) into the in-process CoalitionSearch.
 """
 
-import json
 import math
 import re
 import time
@@ -18,7 +17,7 @@ import yaml
 
 from collab_tools.orchestration.node_process import NodeSpec
 from bridge_helpers import body_pose, bridge_spec
-from coalition_interfaces.msg import AgentMessage, Information
+from coalition_interfaces.msg import AgentMessage, Information, NamedValue
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file, load_costs, load_library, load_tasks
 from coalition_agents.core.live_sensing import LiveSensing
 
@@ -112,7 +111,7 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
     while 'dropped malformed channel message' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed message was not reported by the leader'
         time.sleep(0.1)
-    formed = re.search(r'\((\d+\.\d+) s\)', leader.detail)
+    formed = re.search(r'formed at [\d.]+ s \((\d+\.\d+) s\)', leader.detail)
     print(f'\nloss {loss}: coalition {leader.coalition_id} cost {leader.cost:g} formed after '
           f'{formed.group(1)} sim s (search_time 3 s), {wall:.1f} wall s from start; '
           f'retries {leader.retries}, dropped {leader.dropped}')
@@ -171,11 +170,11 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     # the leader F_R(pusher_r2, helper); composed (Table I), they put the leader where it truly is.
     def streamed(label, referents):
         msg = session.wait_for_message(
-            '/coalition/channel', 'coalition_interfaces/msg/AgentMessage', timeout=20.0,
+            f'/coalition/channel/{NAV_LEADER}', 'coalition_interfaces/msg/AgentMessage', timeout=20.0,
             predicate=lambda m: (m.kind == 8 and m.sender == helper and m.receiver == NAV_LEADER
                                  and m.instance.type == label and list(m.instance.referents) == referents))
         assert msg.coalition_id == first.coalition_id
-        return json.loads(msg.reason)
+        return {entry.name: entry.value for entry in msg.values}
 
     pose, seen = streamed('F_G', [helper]), streamed('F_R', [NAV_LEADER, helper])
     c, s_ = math.cos(pose['yaw']), math.sin(pose['yaw'])
@@ -190,7 +189,8 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
         time.sleep(0.05)
     publisher.publish(AgentMessage(message_id=7, sender=helper, receiver=NAV_LEADER, kind=8,
                                    instance=Information(type='F_G', referents=[helper]),
-                                   coalition_id=first.coalition_id, reason='{"x": "north"}'))
+                                   coalition_id=first.coalition_id,
+                                   values=[NamedValue(name='x', value=math.nan), NamedValue(name='y', value=0.0)]))
     leader_log = session.run_dir / 'logs' / f'schema_agent_{NAV_LEADER}.log'
     deadline = time.monotonic() + 10.0
     while 'message.values.x: must be a finite number' not in leader_log.read_text():

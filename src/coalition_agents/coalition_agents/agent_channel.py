@@ -1,21 +1,33 @@
-"""The agent-to-agent channel of a coalition agent on ROS 2: one shared topic, a link model on
-the sending side, retries and commitments from :mod:`.core.reliable_channel`.
+"""The agent-to-agent channel of a coalition agent on ROS 2: one inbox topic per robot, a link
+model on the sending side, retries and commitments from :mod:`.core.reliable_channel`.
 
-Every agent publishes and subscribes ``/coalition/channel`` (``coalition_interfaces/AgentMessage``,
-reliable QoS, so the only losses are the modelled ones). Each copy an agent sends (one per
-recipient; a broadcast is one copy per teammate) goes through its :class:`~.core.link_model.LinkModel`
-first: dropped, or published after the sampled delay by a one-shot timer on the node's clock
-(sim time when ``use_sim_time`` is set). Received messages are converted to the codec's dict
+Every copy an agent sends is addressed to one robot (a broadcast is one copy per teammate) and
+is published on that robot's inbox ``/coalition/channel/<robot>`` (:func:`inbox_topic`;
+``coalition_interfaces/AgentMessage``, reliable QoS, so the only losses are the modelled ones).
+Why not one shared topic: a search of the Fig. 9 column of 10 robots puts ~12,000 copies on the
+channel in a few seconds; on one topic every agent would receive (and rclpy deserialise and
+dispatch) every copy -- ten times the traffic, which is what made the agents fall behind. An
+agent still listens on the shared ``/coalition/channel`` too (messages addressed to another robot
+are dropped unread; a message without receiver is for everyone), which tools and tests may use,
+and whose subscriber count tells that the team is up. Each copy goes through the sender's
+:class:`~.core.link_model.LinkModel` first: dropped, or published after the sampled delay by a
+delay queue on the node's clock (sim time when ``use_sim_time`` is set).
+
+Cost per message matters (rclpy's executor rebuilds its wait set on every wait, so every entity
+costs on every callback): the channel has no QoS event handlers on its endpoints, and delayed
+copies wait in one queue per agent instead of a one-shot timer each. The queue is drained on the
+channel's ``tick_s`` timer and whenever the agent handles a channel message, so a copy leaves at
+its sampled delay or up to ``tick_s`` later (the link model's delay plus at most 10 ms by default;
+during a search the agent handles messages every few ms, so usually much less). Received messages are converted to the codec's dict
 form, validated (:class:`~.core.channel_codec.ChannelCodec`), run through the
 :class:`~.core.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
 ACKs, commitment answers) and handed to ``on_message``. A malformed message is logged and
 dropped; the channel never raises from a ROS callback.
 
 Streamed information (kind INFORMATION = 8, :meth:`AgentChannel.stream`) goes through the same
-link model but is never acknowledged or retried (the latest value wins). AgentMessage has no
-numeric array field, so its values travel as a JSON object in ``reason`` (e.g.
-``{"x": 1.2, "y": -0.4}``), decoded and checked by the codec like every other field; a
-``float64[] values`` field in the interface would be the cleaner carrier.
+link model but is never acknowledged or retried (the latest value wins). Its values travel in
+AgentMessage's ``values`` (``NamedValue[]``: ``{name: x, value: 1.2}, ...``), checked by the
+codec like every other field.
 
 Usage (in the schema_agent node)::
 
@@ -26,14 +38,16 @@ Usage (in the schema_agent node)::
 """
 from __future__ import annotations
 
-import json
+import heapq
+import itertools
 import time
 from typing import Callable, Iterable, Sequence
 
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from coalition_interfaces.msg import AgentMessage, ChainLink, Information
+from coalition_interfaces.msg import AgentMessage, ChainLink, Information, NamedValue
 
 from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
 from .core.errors import CoalitionError
@@ -41,6 +55,13 @@ from .core.link_model import LinkModel
 from .core.reliable_channel import Negotiation, Received, ReliableChannel, RetryPolicy, Undelivered
 
 DEFAULT_TOPIC = '/coalition/channel'
+#: publisher and subscription queue depth of the channel
+QUEUE_DEPTH = 5000
+
+
+def inbox_topic(robot: str, topic: str = DEFAULT_TOPIC) -> str:
+    """The topic on which ``robot``'s agent receives the copies addressed to it."""
+    return f'{topic}/{robot}'
 
 
 def to_ros(message: ChannelMessage, stamp=None) -> AgentMessage:
@@ -70,7 +91,7 @@ def to_ros(message: ChannelMessage, stamp=None) -> AgentMessage:
     msg.hold_seconds = float(data.get('hold_seconds', 0.0))
     msg.reason = data.get('reason', '')
     if 'values' in data:
-        msg.reason = json.dumps(data['values'], sort_keys=True)
+        msg.values = [NamedValue(name=entry['name'], value=entry['value']) for entry in data['values']]
     return msg
 
 
@@ -93,20 +114,11 @@ def from_ros(msg: AgentMessage) -> dict:
         'coalition_id': lambda: msg.coalition_id,
         'hold_seconds': lambda: float(msg.hold_seconds),
         'reason': lambda: msg.reason,
-        'values': lambda: _values_from_text(msg.reason),
+        'values': lambda: [{'name': entry.name, 'value': float(entry.value)} for entry in msg.values],
     }
     for name in fields:
         data[name] = readers[name]()
     return data
-
-
-def _values_from_text(text: str) -> object:
-    """An INFORMATION message's values from its ``reason`` field (see the module docstring);
-    the codec checks what they contain."""
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CoalitionError(f'message.values: not a JSON object of numbers in the reason field ({exc})') from None
 
 
 def _information(data: dict) -> Information:
@@ -146,11 +158,23 @@ class AgentChannel:
         self.core = ReliableChannel(robot, policy, first_message_id=time.time_ns() // 1000)
         self.dropped = 0
         self.rejected = 0
-        self._delay_timers: set = set()
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=200, reliability=ReliabilityPolicy.RELIABLE,
+        self._delayed: list[tuple[float, int, AgentMessage]] = []  # (due, order, message): a heap
+        self._order = itertools.count()
+        # Deep enough for the burst of a whole search (the Fig. 9 column of 10 sends ~12,000 copies
+        # in a few seconds): a full KEEP_LAST queue silently replaces unread messages.
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
-        self.publisher = node.create_publisher(AgentMessage, topic, qos)
-        self.subscription = node.create_subscription(AgentMessage, topic, self._on_wire, qos)
+        publisher = lambda name: node.create_publisher(  # noqa: E731
+            AgentMessage, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
+        subscribe = lambda name: node.create_subscription(  # noqa: E731
+            AgentMessage, name, self._on_wire, qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        self.publisher = publisher(topic)
+        self.subscription = subscribe(topic)
+        # Created up front: a publisher created at the first send would publish before it matched
+        # the receiver's subscription (volatile: that copy would be lost).
+        self.inboxes = {teammate: publisher(inbox_topic(teammate, topic)) for teammate in self.team if teammate != robot}
+        self.inbox = subscribe(inbox_topic(robot, topic))
         self.retry_timer = node.create_timer(tick_s, self._on_tick)
 
     # --- time ----------------------------------------------------------------------------------
@@ -204,25 +228,27 @@ class AgentChannel:
         if delay <= 0.0:
             self._publish(msg)
             return
-        holder: list = []
+        heapq.heappush(self._delayed, (self.now() + delay, next(self._order), msg))
 
-        def fire() -> None:
-            timer = holder[0]
-            timer.cancel()
-            self.node.destroy_timer(timer)
-            self._delay_timers.discard(timer)
-            self._publish(msg)
-
-        timer = self.node.create_timer(delay, fire, clock=self.node.get_clock())
-        holder.append(timer)
-        self._delay_timers.add(timer)
+    def _release_due(self) -> None:
+        """Publish the delayed copies whose time has come (see the module docstring)."""
+        if not self._delayed:
+            return
+        now = self.now()
+        while self._delayed and self._delayed[0][0] <= now:
+            self._publish(heapq.heappop(self._delayed)[2])
 
     def _publish(self, msg: AgentMessage) -> None:
         msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.publisher.publish(msg)
+        self.inboxes.get(msg.receiver, self.publisher).publish(msg)
+
+    def teammates_listening(self) -> int:
+        """How many teammates' agents subscribe to their inbox (their agent is up)."""
+        return sum(1 for publisher in self.inboxes.values() if publisher.get_subscription_count() > 0)
 
     # --- receiving ---------------------------------------------------------------------------------
     def _on_wire(self, msg: AgentMessage) -> None:
+        self._release_due()
         if msg.sender == self.robot or (msg.receiver and msg.receiver != self.robot):
             return  # our own copies and other robots' mail: not for us (cheap check before decoding)
         try:
@@ -245,6 +271,7 @@ class AgentChannel:
             self.node.get_logger().error(f'{self.robot}: handling {message} failed: {type(exc).__name__}: {exc}')
 
     def _on_tick(self) -> None:
+        self._release_due()
         resend, failed = self.core.poll(self.now())
         for message in resend:
             self._transmit(message)
@@ -261,12 +288,13 @@ class AgentChannel:
         return {**self.core.stats.to_dict(), 'dropped': self.dropped, 'malformed': self.rejected}
 
     def destroy(self) -> None:
-        for timer in list(self._delay_timers):
-            self.node.destroy_timer(timer)
-        self._delay_timers.clear()
+        self._delayed.clear()
         self.node.destroy_timer(self.retry_timer)
         self.node.destroy_subscription(self.subscription)
+        self.node.destroy_subscription(self.inbox)
         self.node.destroy_publisher(self.publisher)
+        for publisher in self.inboxes.values():
+            self.node.destroy_publisher(publisher)
 
 
-__all__ = ['AgentChannel', 'DEFAULT_TOPIC', 'from_ros', 'to_ros']
+__all__ = ['AgentChannel', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'from_ros', 'inbox_topic', 'to_ros']

@@ -7,10 +7,12 @@ algorithm, would dominate the measured search time. As in an rclcpp component co
 agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its own
 name, parameters, publishers and subscriptions on the real topics (``/coalition/channel``,
 ``/<robot>/coalition``, the bridge's sensor topics and services); only the process, the DDS
-participant and the executor are shared. One multi-threaded executor runs every node's
-callbacks (a thread pool with one thread per agent; each node's callbacks stay mutually
-exclusive through its default callback group, so an agent sees its events one at a time, as in
-its own process).
+participant and the executor are shared. One executor runs every node's callbacks; each node's
+callbacks stay mutually exclusive (its default callback group), so an agent sees its events one
+at a time, as in its own process. ``executor``: ``single`` (default) -- rclpy's single-threaded
+executor: under the GIL threads add no parallelism, and the multi-threaded executor's per-callback
+overhead (futures, thread hand-over) made the agents fall behind a burst of channel messages;
+``multi`` -- a multi-threaded executor with one thread per agent.
 
 Parameters:
 
@@ -20,8 +22,9 @@ Parameters:
   rcl as a ``--params-file`` of each node: ``/**`` entries for every agent, ``<node_prefix><robot>``
   entries per agent (``robot`` is set by the host).
 * ``node_prefix`` (default ``schema_agent_``).
-* ``wait_for_recorder`` (s, default 0): offer ``/coalition/channel`` and wait up to this long
-  for a subscriber (the bag recorder) before creating the agents, so the whole search is recorded.
+* ``wait_for_recorder`` (s, default 0): offer ``/coalition/channel`` and the hosted robots'
+  inboxes ``/coalition/channel/<robot>`` and wait up to this long for a subscriber of each (the
+  bag recorder) before creating the agents, so the whole search is recorded.
 * ``linger`` (s, default 1.0): once every hosted agent with ``exit_when_done`` is done, keep
   spinning this long (wall clock) so the last messages reach the recorder, then exit 0. Without
   any such agent the host spins until shutdown.
@@ -36,7 +39,7 @@ import time
 from pathlib import Path
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 
 from collab_tools.node_support import ConfigurationError, declare as declare_parameter
@@ -74,7 +77,8 @@ class AgentHost(Node):
                 ('node_prefix', 'schema_agent_', 'hosted node name = prefix + robot'),
                 ('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done, >= 0'),
                 ('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag '
-                                           'recorder) before the agents start; 0 = do not wait')):
+                                           'recorder) before the agents start; 0 = do not wait'),
+                ('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)")):
             declare_parameter(self, name, default, description)
         robots = self.get_parameter('robots').value
         if not isinstance(robots, (list, tuple)) or not robots or not all(isinstance(r, str) and r for r in robots):
@@ -91,6 +95,9 @@ class AgentHost(Node):
         self.wait_for_recorder = float(self.get_parameter('wait_for_recorder').value or 0.0)
         self.robots, self.parameter_file = list(robots), Path(path)
         self.prefix = str(self.get_parameter('node_prefix').value)
+        self.executor_kind = self.get_parameter('executor').value
+        if self.executor_kind not in ('single', 'multi'):
+            raise ConfigurationError(f"parameter executor: must be 'single' or 'multi' (got {self.executor_kind!r})")
         self.agents: list[SchemaAgentNode] = []
 
     def wait_for_channel_recorder(self) -> bool:
@@ -99,14 +106,16 @@ class AgentHost(Node):
         if self.wait_for_recorder <= 0:
             return True
         from coalition_interfaces.msg import AgentMessage
-        from .agent_channel import DEFAULT_TOPIC
-        publisher = self.create_publisher(AgentMessage, DEFAULT_TOPIC, 10)
+        from .agent_channel import DEFAULT_TOPIC, inbox_topic
+        topics = [DEFAULT_TOPIC] + [inbox_topic(robot) for robot in self.robots]
+        publishers = [self.create_publisher(AgentMessage, topic, 10) for topic in topics]
         deadline = time.monotonic() + self.wait_for_recorder
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+        while any(p.get_subscription_count() == 0 for p in publishers) and time.monotonic() < deadline:
             time.sleep(0.05)
-        ok = publisher.get_subscription_count() > 0
+        missing = [topic for topic, p in zip(topics, publishers) if p.get_subscription_count() == 0]
+        ok = not missing
         if not ok:
-            self.get_logger().warning(f'nobody subscribed to {DEFAULT_TOPIC} within {self.wait_for_recorder:g} s; '
+            self.get_logger().warning(f'nobody subscribed to {", ".join(missing)} within {self.wait_for_recorder:g} s; '
                                       'starting the agents anyway')
         time.sleep(0.3)  # the recorder opens the topic in the bag before the first message
         return ok
@@ -142,10 +151,8 @@ def main(args=None) -> int:
         rclpy.logging.get_logger('schema_agent_host').fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2
-    # One thread per agent: each node's callbacks stay mutually exclusive (its default callback
-    # group), as in its own process, while one agent's long tick does not stop the others from
-    # draining their channel subscriptions.
-    executor = MultiThreadedExecutor(num_threads=len(host.agents) + 1)
+    executor = (SingleThreadedExecutor() if host.executor_kind == 'single'
+                else MultiThreadedExecutor(num_threads=len(host.agents) + 1))
     for node in (host, *host.agents):
         executor.add_node(node)
     waiting = host.finishing()

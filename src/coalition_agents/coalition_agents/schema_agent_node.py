@@ -7,17 +7,25 @@ The reasoning is :class:`~.core.agent.SchemaAgent` (pure Python); this node conn
   are what the sensors retrieve: ``/<robot>/fiducials`` (each detected team robot or library
   object X gives F_R(X, robot)), ``/<robot>/gps``, ``/<robot>/scan``, ``/<robot>/bumper`` (a report
   means the sensor's label is retrieved) -- see :class:`~.core.live_sensing.LiveSensing`;
-* the agent channel ``/coalition/channel`` (:class:`~.agent_channel.AgentChannel`: link model,
+* the agent channel, ``/coalition/channel/<robot>`` inboxes (:class:`~.agent_channel.AgentChannel`: link model,
   retries, exactly-once delivery, commitments): requests, offers and request-and-wait
   negotiation;
 * ``/<robot>/coalition`` (coalition_interfaces/AgentStatus, latched): its state (searching,
   negotiating, committed, failed, idle), the coalition, its leader, members and cost.
 
 Life cycle (sim time, ``use_sim_time``): once every teammate's agent listens on the channel (or
-after ``team_wait``) a robot with a task starts the search; every ``tick_period`` it
-re-instantiates its reply spaces and sends better offers. After ``search_time`` it negotiates its
-least-cost coalition (the cheapest per set of members, in non-descending cost: if one helper
-refuses or cannot be reached, the next), keeps the sensors of that coalition active (and those of
+after ``team_wait``) a robot with a task starts the search. The agent is event-driven: a channel
+message (request, offer) wakes it through a guard condition, so it re-instantiates what the
+messages changed and sends better offers as soon as the executor has delivered the messages
+ready now (several at once); the ``tick_period`` timer catches changes of the sensor readings and
+the deadlines. It negotiates its least-cost coalition (the cheapest per set of members, in
+non-descending cost: if one helper refuses or cannot be reached, the next) once it has an
+executable coalition whose cost has not improved for ``settle_time`` (no cheaper coalition came
+from the offers since), or at ``search_time`` at the latest (``settle_time`` >= ``search_time``:
+always the whole search time, the paper's rule). Its status reports when the first executable
+coalition was found (``detail``: ``first executable coalition at <t> s (<t - start> s, cost
+<c>)``, published as a ``searching`` status when it happens and kept in later details), so
+"found" and "formed" are both in the bag. It keeps the sensors of that coalition active (and those of
 the answers it gives itself, footnote 10) and publishes it. A helper accepts the first coalition
 that asks it (CommitmentLedger: one commitment at a time) and keeps the sensors it serves its
 leader with.
@@ -55,8 +63,8 @@ stop the node with exit code 2 and a message naming the parameter.
 Known limits: the bridge's fiducial measures positions, not the seen robot's orientation, so an
 answer that needs a relative heading (inverting F_R, or composing through a robot localised by a
 fiducial) cannot be computed on values; such a coalition is set up but its MS waits, and a
-helper does not stream what it cannot compute. The INFORMATION values travel as JSON in
-AgentMessage's ``reason`` field (see :mod:`.agent_channel`).
+helper does not stream what it cannot compute. The INFORMATION values travel in AgentMessage's
+``values`` (``NamedValue[]``; see :mod:`.agent_channel`).
 """
 from __future__ import annotations
 
@@ -85,7 +93,7 @@ from .core.information_stream import InformationStream
 from .core.information_values import ValueUnavailable, evaluate
 from .core.motor_schema import STOP, BoxPush, GoToGoal, HeadingEstimator, MaintainRelativePosition, Velocity
 from .core.link_model import LinkModel
-from .core.reliable_channel import Negotiation, Received
+from .core.reliable_channel import Negotiation, Received, RetryPolicy
 from .core.schemas import load_costs, load_library
 from .core.tasks import load_tasks
 
@@ -114,7 +122,12 @@ class SchemaAgentNode(Node):
                 ('link_delay_std', -1.0, 'one-way delay std, s; < 0 = preset'),
                 ('loss_probability', 0.0, 'probability that a message copy is lost, [0, 1]'),
                 ('seed', -1, 'link model seed; -1 = fresh'),
-                ('search_time', 3.0, 'sim s of search before negotiating the least-cost coalition, > 0'),
+                ('search_time', 3.0, 'sim s of search before negotiating the least-cost coalition at the latest, > 0'),
+                ('settle_time', 1.0, 'sim s the cheapest executable coalition must stay the cheapest before the '
+                                     'leader negotiates it (earlier than search_time), > 0'),
+                ('ack_timeout', 0.25, 'sim s before an unanswered channel message is first re-sent (doubling up to '
+                                      '2 s, 6 retries), > 0: covers the link delay and the receiving agent\'s '
+                                      'processing lag during a search burst'),
                 ('hold_seconds', 0.0, 'commitment hold time sent to helpers, s; 0 = until released'),
                 ('reading_timeout', 1.0, 'sim s a sensor report stays current, > 0'),
                 ('tick_period', 0.1, 'sim s between re-evaluations, > 0'),
@@ -168,6 +181,7 @@ class SchemaAgentNode(Node):
             raise ConfigurationError("parameter team_task: required when task is 'none' (the task the team works "
                                      f"on: {', '.join(tasks)})")
         self.search_time = self._positive(p, 'search_time')
+        self.settle_time = self._positive(p, 'settle_time')
         self.hold_seconds = self._number(p, 'hold_seconds', 0.0, 'a number >= 0')
         reading_timeout = self._positive(p, 'reading_timeout')
         tick_period = self._positive(p, 'tick_period')
@@ -192,6 +206,8 @@ class SchemaAgentNode(Node):
         self.navigate = GoToGoal(max_speed=max_speed, tolerance=tolerance)
         self.push = BoxPush(standoff=standoff, lateral_offset=push_offset, tolerance=tolerance)
         link = self._link_model(p)
+        ack_timeout = self._positive(p, 'ack_timeout')
+        retry = RetryPolicy(ack_timeout_s=ack_timeout, max_timeout_s=max(2.0, ack_timeout), max_retries=6)
         try:
             self.agent = SchemaAgent(self.robot, team, library, costs, task, self, team_task=team_task,
                                      reading_timeout_s=reading_timeout)
@@ -209,7 +225,8 @@ class SchemaAgentNode(Node):
                                                                                      'y': float(goal[1])},
                        InformationInstance('F_M'): {}}
         codec = ChannelCodec.for_team(library, self.team)
-        self.channel = AgentChannel(self, self.robot, codec, link, team=self.team, on_message=self._on_message)
+        self.channel = AgentChannel(self, self.robot, codec, link, team=self.team, on_message=self._on_message,
+                                    policy=retry)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.status_pub = self.create_publisher(AgentStatus, f'/{self.robot}/coalition', latched)
@@ -251,10 +268,16 @@ class SchemaAgentNode(Node):
         self.detail = ''
         self._attempts = 0
         self._pending_switches: list[tuple[str, bool]] = []
+        self.found_at: float | None = None
+        self._best_cost: float | None = None
+        self._best_since: float | None = None
         self.create_timer(tick_period, self._tick)
+        # Event-driven evaluation: channel messages trigger this; the executor runs it after the
+        # messages ready now, so one evaluation covers a burst of offers.
+        self._wake = self.create_guard_condition(self._on_wake)
         self._publish_status()
         self.get_logger().info(f"{self.robot}: task {task_name}, team {', '.join(self.team)}, link {link!r}, "
-                               f'search {self.search_time:g} s')
+                               f'search {self.search_time:g} s, settle {self.settle_time:g} s')
 
     # --- parameters ----------------------------------------------------------------------------
     @staticmethod
@@ -356,8 +379,10 @@ class SchemaAgentNode(Node):
                         self.state = 'helping'
                         self._publish_status()
                 self.agent.on_request(message.request, message)
+                self._wake.trigger()
             elif message.kind is MessageKind.OFFER:
                 self.agent.on_offer(message.offer)
+                self._wake.trigger()
             elif message.kind is MessageKind.INFORMATION:
                 if (self.commitment is not None and message.coalition_id == self.commitment[0]
                         and message.sender in self.commitment[2]):  # only the coalition's members
@@ -388,6 +413,15 @@ class SchemaAgentNode(Node):
             self.get_logger().warning(f'{self.robot}: dropped {message}: {exc}')
 
     # --- the search ----------------------------------------------------------------------------------
+    def _on_wake(self) -> None:
+        """Channel messages changed the agent's inputs: evaluate now (see the module docstring)."""
+        if self.started_at is None:
+            return  # the periodic tick starts the search
+        now = self._now()
+        self.agent.tick(now)
+        if self.agent.task is not None and self.state == 'searching':
+            self._lead(now)
+
     def _tick(self) -> None:
         now = self._now()
         if now <= 0.0:
@@ -398,7 +432,7 @@ class SchemaAgentNode(Node):
                 self.first_clock = now
             # Start when every teammate listens on the channel (a request sent before would only
             # be retried), or after team_wait without them.
-            listening = self.channel.publisher.get_subscription_count()
+            listening = 1 + self.channel.teammates_listening()
             if listening < len(self.team) and now - self.first_clock < self.team_wait:
                 return
             if listening < len(self.team):
@@ -422,8 +456,26 @@ class SchemaAgentNode(Node):
             self.agent.keep_only(())
             self.finished.set_result(True)
 
+    def _settled(self, now: float) -> bool:
+        """Track the cheapest executable coalition; True once it is time to negotiate: it has
+        not improved for settle_time, or the search time is over."""
+        coalitions = self.agent.coalitions(now)
+        if coalitions:
+            cost = coalitions[0].cost
+            if self.found_at is None:
+                self.found_at = now
+                self.detail = (f'search started at {self.started_at:.3f} s; first executable coalition at '
+                               f'{now:.3f} s ({now - self.started_at:.3f} s, cost {cost:g})')
+                self.get_logger().info(f'{self.robot}: {self.detail}')
+                self._publish_status()
+            if self._best_cost is None or cost < self._best_cost:
+                self._best_cost, self._best_since = cost, now
+        if now >= self.started_at + self.search_time:
+            return True
+        return self._best_since is not None and now - self._best_since >= self.settle_time
+
     def _lead(self, now: float) -> None:
-        if self.state == 'searching' and now >= self.started_at + self.search_time:
+        if self.state == 'searching' and self._settled(now):
             seen: set = set()
             self.candidates = []
             for coalition in self.agent.coalitions(now):
@@ -610,6 +662,7 @@ class SchemaAgentNode(Node):
                                + (f" without {', '.join(check.lost_helpers)}" if check.lost_helpers else ''))
         self.started_at = now
         self.state = 'searching'
+        self.found_at = self._best_cost = self._best_since = None
         self.agent.restart(exclude=check.lost_helpers)
         self._publish_status()
 
@@ -622,6 +675,7 @@ class SchemaAgentNode(Node):
                                       f'({self._reforms}/{self.max_reforms})')
             self.started_at = now
             self.state = 'searching'
+            self.found_at = self._best_cost = self._best_since = None
             self.agent.restart()
             self._publish_status()
             return
@@ -656,7 +710,9 @@ class SchemaAgentNode(Node):
         # Its own sensors, and those of the answers it gives itself (footnote 10 self-requests).
         self.agent.keep_only(chosen.sensors() + self.agent.sensors_serving(self.robot))
         self.execution = CoalitionExecution(chosen.lcs, now, self.reform_timeout or math.inf)
-        self.detail = (f'search started at {self.started_at:.3f} s; formed at {now:.3f} s '
+        found = '' if self.found_at is None else \
+            f'first executable coalition at {self.found_at:.3f} s ({self.found_at - self.started_at:.3f} s); '
+        self.detail = (f'search started at {self.started_at:.3f} s; {found}formed at {now:.3f} s '
                        f'({now - self.started_at:.3f} s); potential solution {chosen.potential_solution.rank + 1}')
         self.get_logger().info(f'{self.robot}: coalition {negotiation.coalition_id} established: '
                                f'{chosen.describe()}')

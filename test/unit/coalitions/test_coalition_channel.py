@@ -224,6 +224,53 @@ def test_ros_message_conversion_round_trips(library, codec):
         codec.decode(from_ros(unknown))
 
 
+def test_ros_information_message_carries_typed_values(library):
+    """The streamed value is in AgentMessage.values (NamedValue[]), not text in ``reason``."""
+    from coalition_agents.agent_channel import to_ros
+    from coalition_interfaces.msg import AgentMessage
+    ros = to_ros(sample_messages(library)[-1])
+    assert ros.kind == AgentMessage.INFORMATION == int(MessageKind.INFORMATION)
+    assert [(entry.name, entry.value) for entry in ros.values] == [('x', 1.0), ('y', 2.0)]
+    assert ros.reason == '' and ros.coalition_id == 'robot_1/1'
+    assert (ros.instance.type, list(ros.instance.referents)) == ('F_G', ['robot_2'])
+
+
+def ros_information(**changes):
+    """A well-formed INFORMATION AgentMessage from robot_2 to robot_1, with ``changes``."""
+    from coalition_interfaces.msg import AgentMessage, Information, NamedValue
+    fields = {'message_id': 45, 'sender': 'robot_2', 'receiver': 'robot_1', 'kind': AgentMessage.INFORMATION,
+              'instance': Information(type='F_G', referents=['robot_2']), 'coalition_id': 'robot_1/1',
+              'values': [NamedValue(name='x', value=1.0), NamedValue(name='y', value=2.0)]}
+    fields.update(changes)
+    return AgentMessage(**fields)
+
+
+def named(*pairs):
+    from coalition_interfaces.msg import NamedValue
+    return [NamedValue(name=name, value=value) for name, value in pairs]
+
+
+@pytest.mark.parametrize('changes, message', [
+    ({'values': named(('x', 1.0), ('y', math.nan))}, 'message.values.y: must be a finite number (got float nan)'),
+    ({'values': named(('x', math.inf), ('y', 2.0))}, 'message.values.x: must be a finite number (got float inf)'),
+    ({'values': named(('x', 1.0), ('y', 2.0), ('y', 2.5))},
+     'message.values.y: given twice (at message.values[1] and message.values[2]'),
+    ({'values': named(('x', 1.0), ('y', 2.0), ('speed', 0.3))},
+     'message.values.speed: unknown field of a F_G value (allowed: x, y, yaw)'),
+    ({'values': named(('x', 1.0))}, 'message.values.y: missing required field of a F_G value'),
+    ({'values': named(('x', 1.0), ('', 2.0))}, 'message.values[1].name: must be a non-empty field name'),
+    ({'coalition_id': ''}, 'message.coalition_id: must be a non-empty string'),
+    ({'receiver': ''}, 'message.receiver: an information message goes to one robot'),
+])
+def test_malformed_ros_information_messages_are_rejected_naming_the_field(codec, changes, message):
+    """What a peer (or a bug) can put on the wire: the codec rejects it, the channel logs and drops it."""
+    from coalition_agents.agent_channel import from_ros
+    assert codec.decode(from_ros(ros_information())).values == (('x', 1.0), ('y', 2.0))  # the base is valid
+    with pytest.raises(RequestError) as caught:
+        codec.decode(from_ros(ros_information(**changes)))
+    assert message in str(caught.value)
+
+
 # --- reliable channel: single steps --------------------------------------------------------------
 
 def test_retry_policy_backoff_and_validation():

@@ -132,7 +132,11 @@ def coalition_bag(tmp_path):
     def info():
         return T['coalition_interfaces/msg/Information'](type='', referents=[])
 
-    def write(path, statuses, messages):
+    # AgentMessage's streamed values (INFORMATION messages), empty here
+    streamed_values = {'values': []} if 'values' in T[message_type].__dataclass_fields__ else {}
+
+    def write(path, statuses, messages, details=None):
+        details = details or {}
         with BagWriter(path, store) as writer:
             writer.add_topic('/coalition/channel', message_type)
             for robot in sorted({s[1] for s in statuses}):
@@ -140,11 +144,11 @@ def coalition_bag(tmp_path):
             rows = [(s[0], f'/{s[1]}/coalition', status_type, T[status_type](
                 header=header(s[0]), robot=s[1], state=s[2], task=s[3], coalition_id=s[4], leader=s[5],
                 members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0, duplicates=0,
-                dropped=0, detail='')) for s in statuses]
+                dropped=0, detail=details.get(index, ''))) for index, s in enumerate(statuses)]
             rows += [(m[0], '/coalition/channel', message_type, T[message_type](
                 header=header(m[0]), message_id=i + 1, sender=m[1], receiver=m[2], kind=m[3], conversation_id=0,
                 in_reply_to=0, label=info(), chain=[], instance=info(), cost=0.0, members=list(m[4]), coalition_id='',
-                hold_seconds=0.0, reason='')) for i, m in enumerate(messages)]
+                hold_seconds=0.0, reason='', **streamed_values)) for i, m in enumerate(messages)]
             for t, topic, type_name, msg in sorted(rows, key=lambda r: r[0]):
                 writer.write(topic, int(t * 1e9), bytes(store.serialize_cdr(msg, type_name)))
         return path
@@ -197,3 +201,18 @@ def test_a_robot_committed_to_two_coalitions_is_reported(coalition_bag, tmp_path
     assert commitments(run) == {'helper': ['a/1', 'b/1'], 'other': ['a/1', 'b/2']}
     timeline = leader_timeline(run, 'a')   # searched, never committed, no offers
     assert timeline.state == 'searching' and timeline.found is None and timeline.formed_s is None
+
+
+def test_found_is_the_leaders_first_executable_coalition_status(coalition_bag, tmp_path):
+    from coalition_agents.sim_experiments import FOUND_MARK, leader_timeline, read_coalition_bag
+    members = ('robot_2', 'robot_1')
+    statuses = [(5.0, 'robot_2', 'searching', 'navigation', '', '', (), 0),
+                (5.4, 'robot_2', 'searching', 'navigation', '', '', (), 0),
+                (5.8, 'robot_1', 'committed', 'none', 'c', 'robot_2', members, 16),
+                (5.9, 'robot_2', 'committed', 'navigation', 'c', 'robot_2', members, 16)]
+    details = {1: f'search started at 5.000 s; {FOUND_MARK} 5.400 s (0.400 s, cost 16)'}
+    # An offer covering the helper arrives earlier than the status: the status decides.
+    messages = [(5.2, 'robot_1', 'robot_2', OFFER, ('robot_1',))]
+    run = read_coalition_bag(coalition_bag(tmp_path / 'bag', statuses, messages, details))
+    timeline = leader_timeline(run, 'robot_2')
+    assert timeline.found_s == pytest.approx(0.4, abs=1e-6) and timeline.formed_s == pytest.approx(0.9, abs=1e-6)

@@ -1,4 +1,5 @@
-"""Streamed information values: latest wins, stale detection, value checks, Table I conversions."""
+"""Streamed information values: latest wins, stale detection, value checks, Table I conversions,
+and the INFORMATION message of the agent channel that carries them."""
 from __future__ import annotations
 
 import math
@@ -7,7 +8,7 @@ import pytest
 
 from coalition_agents.core.errors import RequestError
 from coalition_agents.core.information import Entity, InformationInstance
-from coalition_agents.core.information_stream import InformationStream, check_value
+from coalition_agents.core.information_stream import MAX_FIELDS, InformationStream, check_value, check_value_fields
 from coalition_agents.core.information_values import (
     ValueUnavailable, global_from_relative, relative_composition, relative_inverse, torque_from_force,
 )
@@ -101,13 +102,44 @@ def test_an_information_message_round_trips_and_is_delivered_without_ack(codec):
     assert received.deliver == message and received.replies == []
 
 
+def test_an_information_message_carries_its_value_as_name_value_entries_in_order(codec):
+    message = information_message('robot_a', 12, 'robot_b', 'robot_b/3', GA, {'yaw': 0.25, 'x': 1.5, 'y': -2.0})
+    assert message.values == (('yaw', 0.25), ('x', 1.5), ('y', -2.0))
+    data = message.to_dict()
+    assert data['values'] == [{'name': 'yaw', 'value': 0.25}, {'name': 'x', 'value': 1.5},
+                              {'name': 'y', 'value': -2.0}]
+    assert 'reason' not in data  # the values no longer ride in the free-text field
+    assert codec.decode(data).values == message.values
+
+
+VALID_VALUES = [{'name': 'x', 'value': 1.5}, {'name': 'y', 'value': -2.0}]
+
+
 @pytest.mark.parametrize('change, error', [
-    ({'values': {'x': 1.0}}, 'message.values.y: missing required field of a F_G value'),
-    ({'values': {'x': 1.0, 'y': 'north'}}, 'message.values.y: must be a finite number'),
+    # the value: missing, unknown, repeated or non-finite fields, malformed entries
+    ({'values': [{'name': 'x', 'value': 1.0}]}, 'message.values.y: missing required field of a F_G value'),
+    ({'values': []}, 'message.values.x: missing required field of a F_G value'),
+    ({'values': VALID_VALUES + [{'name': 'z', 'value': 0.0}]},
+     'message.values.z: unknown field of a F_G value (allowed: x, y, yaw)'),
+    ({'values': VALID_VALUES + [{'name': 'x', 'value': 3.0}]},
+     'message.values.x: given twice (at message.values[0] and message.values[2]'),
+    ({'values': [{'name': 'x', 'value': math.nan}, VALID_VALUES[1]]},
+     'message.values.x: must be a finite number (got float nan)'),
+    ({'values': [VALID_VALUES[0], {'name': 'y', 'value': -math.inf}]},
+     'message.values.y: must be a finite number (got float -inf)'),
+    ({'values': [{'name': 'x', 'value': 'north'}, VALID_VALUES[1]]}, 'message.values.x: must be a finite number'),
+    ({'values': [{'name': 'x', 'value': True}, VALID_VALUES[1]]}, 'message.values.x: must be a finite number'),
+    ({'values': [VALID_VALUES[0], {'name': '', 'value': 1.0}]}, 'message.values[1].name: must be a non-empty field name'),
+    ({'values': [VALID_VALUES[0], {'name': 'y'}]}, 'message.values[1]: must be a mapping with name and value'),
+    ({'values': [VALID_VALUES[0], [2.0]]}, 'message.values[1]: must be a mapping with name and value'),
+    ({'values': {'x': 1.0, 'y': 2.0}}, 'message.values: must be a list of {name, value} entries (got mapping)'),
+    # who it is for, what it is about, which coalition it serves
     ({'receiver': ''}, "message.receiver: an information message goes to one robot"),
     ({'instance': {'type': 'F_G', 'referents': ['X']}}, 'message.instance: streamed information has every referent'),
     ({'instance': {'type': 'F_Q', 'referents': ['robot_a']}}, "message.instance.type: unknown information type 'F_Q'"),
     ({'coalition_id': ''}, 'message.coalition_id: must be a non-empty string'),
+    ({'coalition_id': None}, 'message.coalition_id: must be a non-empty string'),
+    ({'reason': '{"x": 1.0, "y": 2.0}'}, 'message.reason: unknown field for a information message'),
 ])
 def test_malformed_information_messages_name_the_field(codec, change, error):
     data = information_message('robot_a', 12, 'robot_b', 'robot_b/3', GA, {'x': 1.5, 'y': -2.0}).to_dict()
@@ -115,3 +147,29 @@ def test_malformed_information_messages_name_the_field(codec, change, error):
     with pytest.raises(RequestError) as caught:
         codec.decode(data)
     assert error in str(caught.value)
+
+
+def test_an_information_message_without_coalition_id_is_rejected(codec):
+    data = information_message('robot_a', 12, 'robot_b', 'robot_b/3', GA, {'x': 1.5, 'y': -2.0}).to_dict()
+    del data['coalition_id']
+    with pytest.raises(RequestError, match='message.coalition_id: missing required field of a information message'):
+        codec.decode(data)
+
+
+def test_the_sender_cannot_build_a_malformed_information_message(codec):
+    """check_outgoing (run by AgentChannel.send) stops a bad value before it reaches the link."""
+    message = information_message('robot_a', 12, 'robot_b', 'robot_b/3', GA, {'x': math.nan, 'y': 0.0})
+    with pytest.raises(RequestError, match='outgoing information message.values.x: must be a finite number'):
+        codec.check_outgoing(message)
+    message = information_message('robot_a', 12, 'robot_b', 'robot_b/3', RBA, {'x': 1.0, 'y': 0.0, 'heading': 0.0})
+    with pytest.raises(RequestError, match='outgoing information message.values.heading: unknown field of a F_R'):
+        codec.check_outgoing(message)
+
+
+def test_value_fields_of_a_type_without_a_table_entry_are_bounded_not_named():
+    fields = [(f'f{index}', float(index)) for index in range(MAX_FIELDS)]
+    assert check_value_fields('F_NEW', fields) == dict(fields)
+    with pytest.raises(RequestError, match=f'values: at most {MAX_FIELDS} fields'):
+        check_value_fields('F_NEW', fields + [('extra', 0.0)])
+    with pytest.raises(RequestError, match='values.f0: given twice'):
+        check_value_fields('F_NEW', fields[:2] + [('f0', 1.0)])

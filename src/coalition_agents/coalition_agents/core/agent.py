@@ -19,6 +19,23 @@ Per robot, as in Algorithm 2:
    each subscriber is sent every instance it can now get more cheaply than before;
 4. ``coalitions`` instantiates the task's potential solutions: the feasible ones, cheapest first.
 
+Event-driven evaluation (ours; the result is the one of re-instantiating everything every tick):
+a potential solution is re-instantiated only when one of its inputs changed. An offer from a new
+provider or of a new instance for one of its request labels adds only the instantiations that
+use at least one of the new offers (semi-naive, :meth:`~.coalition.RobotReasoner.local_coalition_solutions`
+``new_offers``); a cheaper offer replacing an earlier one of the same provider and instance, or
+a change in the set of current readings of one of its sensors (a new detection, a reading that
+expired), re-instantiates it completely. The answers of
+every potential solution are kept; a reply space's best answers are merged from them, and a new
+subscriber of an existing reply space is sent the existing best answers without any
+re-instantiation. The task's own potential solutions (``coalitions``) are cached the same way.
+Equal-cost answers are decided by :func:`_answer_order` (not by the order instantiations are
+found), so incremental and full evaluation choose the same. ``evaluations`` counts
+instantiations of a potential solution (the work done); ``incremental=False`` re-instantiates
+everything on every call, the reference the unit tests compare against. A tick consumes the
+changes pending when it starts: offers a robot sends itself during a tick are evaluated at the
+next one, as in a full re-evaluation (which takes its view of the offers when the tick starts).
+
 While a coalition executes, ``served_answers`` names what a helper streams to its coalition and
 ``own_answers`` how a robot computes the answers it gives itself (footnote 10); ``restart``
 searches again when the leader re-forms (:mod:`.coalition_execution`).
@@ -111,14 +128,51 @@ def coalition_cost_from_offers(lcs: LocalCoalitionSolution, offer_members: Seque
     return round(total + helper_motor_schema_cost * helpers, COST_DIGITS), members
 
 
+Answer = tuple[float, tuple[str, ...], LocalCoalitionSolution]
+
+
+def _answer_order(entry: Answer) -> tuple:
+    """Ties between equal-cost ways to one answer: fewer robots, then members, then the
+    potential solution's rank, then the instances used (a total order: the choice does not
+    depend on the order in which instantiations were found)."""
+    cost, members, lcs = entry
+    return (cost, len(members), members, lcs.potential_solution.rank,
+            tuple(str(instance) for _, instance, _ in lcs.sources),
+            tuple((offer.provider, str(offer.instance)) for offer in lcs.offers))
+
+
+def _better(entry: Answer, kept: Answer | None) -> bool:
+    if kept is None or entry[0] < kept[0]:
+        return True
+    return entry[0] == kept[0] and _answer_order(entry) < _answer_order(kept)
+
+
 @dataclass
 class _ReplySpace:
     variant: InformationInstance
     solutions: list[PotentialSolution]
     subscribers: list[tuple[InformationRequest, object]] = field(default_factory=list)
     sent: dict[tuple[int, InformationInstance], float] = field(default_factory=dict)
-    #: answer -> (offer cost, members, LCS) of the cheapest way found at the last tick
-    best: dict[InformationInstance, tuple[float, tuple[str, ...], LocalCoalitionSolution]] = field(default_factory=dict)
+    #: answer -> (offer cost, members, LCS) of the cheapest way found at the last evaluation
+    best: dict[InformationInstance, Answer] = field(default_factory=dict)
+    #: per potential solution (index): answer -> its cheapest (offer cost, members, LCS)
+    answers: dict[int, dict[InformationInstance, Answer]] = field(default_factory=dict)
+    #: potential solutions with new offers since their last instantiation (semi-naive update)
+    dirty: set[int] = field(default_factory=set)
+    #: potential solutions to instantiate completely (new, or their readings changed)
+    stale: set[int] = field(default_factory=set)
+    #: subscribers that have not been sent the current best answers yet
+    unserved: bool = False
+
+
+@dataclass
+class _RootSpace:
+    """The task's potential solutions and, per solution, its feasible coalitions (cached)."""
+
+    solutions: list[PotentialSolution] = field(default_factory=list)
+    found: dict[int, list[FeasibleCoalition]] = field(default_factory=dict)
+    dirty: set[int] = field(default_factory=set)
+    stale: set[int] = field(default_factory=set)
 
 
 class SchemaAgent:
@@ -128,7 +182,7 @@ class SchemaAgent:
     def __init__(self, robot: str, team: Mapping[str, RobotCapabilities], library: SchemaLibrary, costs: Costs,
                  task: Task | None, outbox: Outbox, *, team_task: Task | None = None,
                  reading_timeout_s: float = 1.0, potential_solution_limit: int | None = None,
-                 cache: SolutionSpaceCache | None = None):
+                 cache: SolutionSpaceCache | None = None, incremental: bool = True):
         if robot not in team:
             raise RequestError(f"robot: '{robot}' is not in the team ({', '.join(team)})")
         context = task if task is not None else team_task
@@ -141,8 +195,19 @@ class SchemaAgent:
         self.reading_timeout_s = reading_timeout_s
         self.reasoner = RobotReasoner(robot, team[robot], library, costs, context, cache=cache,
                                       potential_solution_limit=potential_solution_limit)
-        self.root: list[PotentialSolution] = []
+        self._root = _RootSpace()
         self.spaces: dict[InformationInstance, _ReplySpace] = {}
+        self.incremental = incremental
+        #: instantiations of a potential solution done so far (the reasoning work)
+        self.evaluations = 0
+        #: sensor -> the readings the cached answers were computed with
+        self._readings_used: dict[str, tuple[InformationInstance, ...]] = {}
+        #: request label / sensor -> (space, solution index) of every potential solution using it
+        self._label_users: dict[InformationInstance, list[tuple[object, int]]] = {}
+        self._sensor_users: dict[str, list[tuple[object, int]]] = {}
+        #: offers received since the reply spaces / the task's solutions were last evaluated
+        self._new_offers: dict[InformationInstance, list[InformationOffer]] = {}
+        self._new_root_offers: dict[InformationInstance, list[InformationOffer]] = {}
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
         #: request label -> (provider, instance) -> (offer, members)
@@ -158,13 +223,32 @@ class SchemaAgent:
     def helper_motor_schema_cost(self) -> float:
         return self.reasoner.helper_motor_schema_cost
 
+    @property
+    def root(self) -> list[PotentialSolution]:
+        """The task's potential solutions being searched (empty for a pure helper)."""
+        return self._root.solutions
+
+    def _register(self, space: object, solutions: Sequence[PotentialSolution]) -> None:
+        """Index which request labels and sensors each potential solution of ``space`` uses."""
+        for index, solution in enumerate(solutions):
+            for label in self.reasoner.request_labels(solution):
+                self._label_users.setdefault(label, []).append((space, index))
+            for sensor in dict.fromkeys(sensor for sensor, _ in self.reasoner.sensing_needs(solution)):
+                self._sensor_users.setdefault(sensor, []).append((space, index))
+            space.stale.add(index)  # type: ignore[attr-defined]
+
+    def _unregister_root(self) -> None:
+        for users in (*self._label_users.values(), *self._sensor_users.values()):
+            users[:] = [(space, index) for space, index in users if space is not self._root]
+
     # Algorithm 2: the own task ---------------------------------------------------------------------
     def start(self) -> None:
         """Activate the sensors and send the requests of the task's potential solutions."""
         if self.task is None:
             return
         plan = self.reasoner.plan_task()
-        self.root = list(plan.solutions)
+        self._root = _RootSpace(list(plan.solutions))
+        self._register(self._root, self._root.solutions)
         self._activate(sensor for sensor, _ in plan.sensors)
         self._send(plan.requests)
 
@@ -179,7 +263,13 @@ class SchemaAgent:
         self.excluded = frozenset(exclude)
         self.offers.clear()
         self.reasoner.ledger.sent.clear()
-        self.root = []
+        self._unregister_root()
+        self._root = _RootSpace()
+        self._new_offers.clear()
+        self._new_root_offers.clear()
+        for space in self.spaces.values():  # their offers are gone too
+            space.answers.clear()
+            space.stale.update(range(len(space.solutions)))
         self.start()
 
     # Serving requests --------------------------------------------------------------------------------
@@ -192,6 +282,7 @@ class SchemaAgent:
             if space is None:
                 space = _ReplySpace(variant, self.reasoner.reply_solutions(variant))
                 self.spaces[variant] = space
+                self._register(space, space.solutions)
                 chain = request.extended_chain
                 for solution in space.solutions:
                     self._activate(sensor for sensor, _ in self.reasoner.sensing_needs(solution))
@@ -202,6 +293,7 @@ class SchemaAgent:
                 for solution in space.solutions:
                     self._activate(sensor for sensor, _ in self.reasoner.sensing_needs(solution))
             space.subscribers.append((request, reply_to))
+            space.unserved = True
         return len(variants)
 
     def on_offer(self, offer: OfferSummary) -> None:
@@ -216,8 +308,14 @@ class SchemaAgent:
         kept = offers.get(key)
         if kept is not None and kept[0].cost <= offer.cost:
             return
-        offers[key] = (InformationOffer(offer.provider, offer.request, offer.instance, None, offer.cost),  # type: ignore[arg-type]
-                       offer.members)
+        received = InformationOffer(offer.provider, offer.request, offer.instance, None, offer.cost)  # type: ignore[arg-type]
+        offers[key] = (received, offer.members)
+        self._new_offers.setdefault(offer.request, []).append(received)
+        self._new_root_offers.setdefault(offer.request, []).append(received)
+        for space, index in self._label_users.get(offer.request, ()):
+            # A new provider/instance only adds instantiations; a cheaper offer replacing one
+            # invalidates those built on the old one (their cost and members): instantiate again.
+            (space.dirty if kept is None else space.stale).add(index)  # type: ignore[attr-defined]
 
     def observe(self, sensor: str, now: float, detected: Iterable[str] = ()) -> tuple[InformationInstance, ...]:
         """A report of ``sensor`` (``detected``: the entities a fiducial sees); the instances retrieved."""
@@ -233,53 +331,111 @@ class SchemaAgent:
     def _members_of(self, lcs: LocalCoalitionSolution) -> list[tuple[str, ...]]:
         return [self.offers[offer.request][(offer.provider, offer.instance)][1] for offer in lcs.offers]
 
+    def _refresh_readings(self, now: float) -> dict[str, tuple[InformationInstance, ...]]:
+        """The current readings; potential solutions using a sensor whose readings changed since
+        they were last instantiated become dirty (``incremental=False``: every one)."""
+        sensed = self.current_readings(now)
+        if not self.incremental:
+            for space in (*self.spaces.values(), self._root):
+                space.stale.update(range(len(space.solutions)))
+            return sensed
+        for sensor in set(sensed) | set(self._readings_used):
+            readings = sensed.get(sensor, ())
+            if self._readings_used.get(sensor, ()) != readings:
+                self._readings_used[sensor] = readings
+                for space, index in self._sensor_users.get(sensor, ()):
+                    space.stale.add(index)  # type: ignore[attr-defined]
+        return sensed
+
+    def pending(self) -> bool:
+        """Whether a :meth:`tick` has work: self-requests, changed inputs or new subscribers."""
+        return bool(self._local) or any(space.dirty or space.stale or space.unserved for space in self.spaces.values())
+
     def tick(self, now: float) -> None:
-        """Serve the self-requests, re-instantiate every reply space and send better offers."""
+        """Serve the self-requests, re-instantiate the reply spaces whose inputs changed and send
+        better offers."""
         while self._local:
             self.on_request(self._local.pop(0), SELF)
-        sensed = self.current_readings(now)
-        offers = self._offer_view()
-        for space in self.spaces.values():
-            best: dict[InformationInstance, tuple[float, tuple[str, ...], LocalCoalitionSolution]] = {}
-            for solution in space.solutions:
-                for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers, reply=True,
-                                                                   cheapest_offers=True):
-                    answer = lcs.answer
-                    if answer is None:
-                        continue
-                    cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
-                                                               self.helper_motor_schema_cost, root_is_helped=False)
-                    if answer not in best or cost < best[answer][0]:
-                        best[answer] = (cost, members, lcs)
-            space.best = best
-            for position, (request, reply_to) in enumerate(space.subscribers):
-                for answer in sorted(best, key=str):
-                    if not answers_request(answer, request.label):
-                        continue
-                    cost, members, _ = best[answer]
-                    previous = space.sent.get((position, answer))
-                    if previous is not None and previous <= cost:
-                        continue
-                    space.sent[(position, answer)] = cost
-                    summary = OfferSummary(self.robot, request.label, answer, cost, members)
-                    self.offers_sent += 1
-                    if reply_to == SELF:
-                        self.on_offer(summary)
-                    else:
-                        self.outbox.send_offer(summary, reply_to)
+        sensed = self._refresh_readings(now)
+        work = [(space, sorted(space.stale), sorted(space.dirty - space.stale)) for space in self.spaces.values()
+                if space.dirty or space.stale or space.unserved]
+        new_offers, self._new_offers = self._new_offers, {}
+        for space, _, _ in work:
+            space.dirty, space.stale, space.unserved = set(), set(), False
+        offers = self._offer_view() if any(stale or dirty for _, stale, dirty in work) else {}
+        for space, stale, dirty in work:
+            for index in stale:
+                space.answers[index] = self._reply_answers(space.solutions[index], sensed, offers, None, {})
+            for index in dirty:
+                space.answers[index] = self._reply_answers(space.solutions[index], sensed, offers, new_offers,
+                                                           space.answers.get(index, {}))
+            if stale or dirty:
+                best: dict[InformationInstance, Answer] = {}
+                for answers in space.answers.values():
+                    for answer, entry in answers.items():
+                        if _better(entry, best.get(answer)):
+                            best[answer] = entry
+                space.best = best
+            self._serve(space)
+
+    def _reply_answers(self, solution: PotentialSolution, sensed, offers, new_offers,
+                       answers: dict[InformationInstance, Answer]) -> dict[InformationInstance, Answer]:
+        """answer -> the cheapest (offer cost, members, LCS) of one reply potential solution:
+        ``answers`` updated with the instantiations using ``new_offers`` (None: all of them)."""
+        self.evaluations += 1
+        for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers, reply=True,
+                                                           cheapest_offers=True, new_offers=new_offers):
+            answer = lcs.answer
+            if answer is None:
+                continue
+            cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
+                                                       self.helper_motor_schema_cost, root_is_helped=False)
+            entry = (cost, members, lcs)
+            if _better(entry, answers.get(answer)):
+                answers[answer] = entry
+        return answers
+
+    def _serve(self, space: _ReplySpace) -> None:
+        """Send each subscriber every answer it can now get more cheaply than before."""
+        best = space.best
+        for position, (request, reply_to) in enumerate(space.subscribers):
+            for answer in sorted(best, key=str):
+                if not answers_request(answer, request.label):
+                    continue
+                cost, members, _ = best[answer]
+                previous = space.sent.get((position, answer))
+                if previous is not None and previous <= cost:
+                    continue
+                space.sent[(position, answer)] = cost
+                summary = OfferSummary(self.robot, request.label, answer, cost, members)
+                self.offers_sent += 1
+                if reply_to == SELF:
+                    self.on_offer(summary)
+                else:
+                    self.outbox.send_offer(summary, reply_to)
 
     def coalitions(self, now: float) -> list[FeasibleCoalition]:
         """The executable coalitions of the task now, in non-descending coalition cost."""
-        sensed = self.current_readings(now)
-        offers = self._offer_view()
-        found = []
-        for solution in self.root:
-            for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers):
-                cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs), self.helper_motor_schema_cost,
-                                                           root_is_helped=True)
-                if self.excluded.intersection(members):
-                    continue
-                found.append(FeasibleCoalition(lcs, members, cost))
+        sensed = self._refresh_readings(now)
+        root = self._root
+        if root.dirty or root.stale:
+            offers = self._offer_view()
+            new_offers, self._new_root_offers = self._new_root_offers, {}
+            for index in sorted(root.stale | root.dirty):
+                self.evaluations += 1
+                full = index in root.stale
+                found = [] if full else root.found.get(index, [])
+                for lcs in self.reasoner.local_coalition_solutions(root.solutions[index], sensed, offers,
+                                                                   new_offers=None if full else new_offers):
+                    cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
+                                                               self.helper_motor_schema_cost, root_is_helped=True)
+                    found.append(FeasibleCoalition(lcs, members, cost))
+                root.found[index] = found
+            root.dirty, root.stale = set(), set()
+        else:
+            self._new_root_offers.clear()
+        found = [coalition for index in sorted(root.found) for coalition in root.found[index]
+                 if not self.excluded.intersection(coalition.members)]
         found.sort(key=lambda c: (c.cost, c.potential_solution.rank, c.members, tuple(c.lcs.step_lines())))
         return found
 

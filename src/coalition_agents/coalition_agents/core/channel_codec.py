@@ -25,11 +25,15 @@ an answer carries beyond the information).
 Dict form (``to_dict`` / :meth:`ChannelCodec.decode`): flat, with the common fields ``kind``
 (lower case name), ``message_id``, ``sender``, ``receiver`` ('' = every robot),
 ``conversation_id``, ``in_reply_to`` and the fields of the kind (:data:`KIND_FIELDS`).
-Labels are ``{'type': 'F_R', 'referents': ['X', 'robot_1']}`` as in the ROS message.
+Labels are ``{'type': 'F_R', 'referents': ['X', 'robot_1']}`` and an INFORMATION message's
+``values`` a list ``[{'name': 'x', 'value': 1.5}, ...]``, both as in the ROS message
+(``Information``, ``NamedValue[]``).
 Decoding checks everything a remote robot could get wrong -- an unknown kind, an unknown
 information type (against the agent's schema library), a malformed or unknown referent, a
-wrong arity, an unknown robot -- and raises :class:`~.errors.RequestError` (a ``ValueError``)
-whose message starts with the field path, e.g. ``message.label.referents[1]: ...``.
+wrong arity, an unknown robot, a streamed value with an unknown, repeated, missing or
+non-finite field (:func:`~.information_stream.check_value_fields`) -- and raises
+:class:`~.errors.RequestError` (a ``ValueError``) whose message starts with the field path,
+e.g. ``message.label.referents[1]: ...`` or ``message.values.x: must be a finite number``.
 """
 from __future__ import annotations
 
@@ -44,7 +48,7 @@ from .information import (
     IDENTIFIER_PATTERN, VARIABLE_PATTERN, EntityCatalog, InformationInstance, InformationTypes, Variable,
     canonical_instance,
 )
-from .information_stream import check_value
+from .information_stream import check_value_fields
 from .requests import InformationRequest
 from .validation import describe_type
 
@@ -120,7 +124,7 @@ class ChannelMessage:
     cost: float = 0.0
     hold_seconds: float = 0.0
     reason: str = ''
-    #: INFORMATION: the instance's value, (field, number) pairs (information_stream.VALUE_FIELDS)
+    #: INFORMATION: the instance's value, (field, number) pairs in order (information_stream.VALUE_FIELDS)
     instance: InformationInstance | None = None
     values: tuple[tuple[str, float], ...] = ()
 
@@ -165,7 +169,7 @@ class ChannelMessage:
                 instance = self.instance if self.kind is MessageKind.INFORMATION else self.offer.instance  # type: ignore[union-attr]
                 data['instance'] = instance_to_dict(instance)  # type: ignore[arg-type]
             elif name == 'values':
-                data['values'] = dict(self.values)
+                data['values'] = [{'name': name, 'value': number} for name, number in self.values]
             elif name == 'cost':
                 data['cost'] = self.offer.cost if self.kind is MessageKind.OFFER else self.cost  # type: ignore[union-attr]
             elif name == 'members':
@@ -274,7 +278,7 @@ class ChannelCodec:
                 raise RequestError(f'{path}.instance: streamed information has every referent instantiated '
                                    f'(got {instance})')
             fields['instance'] = instance
-            fields['values'] = tuple(check_value(instance.label, data['values'], f'{path}.values').items())
+            fields['values'] = self._values(instance.label, data['values'], f'{path}.values')
         if 'coalition_id' in data:
             fields['coalition_id'] = self._coalition_id(data['coalition_id'], f'{path}.coalition_id')
         if 'reason' in data:
@@ -369,6 +373,18 @@ class ChannelCodec:
             raise RequestError(f'{path}.referents: an entity appears twice in {instance} (referents of one '
                                f'instance are different entities)')
         return instance
+
+    @staticmethod
+    def _values(label: str, value: Any, path: str) -> tuple[tuple[str, float], ...]:
+        """A streamed value of a ``label`` instance from its list of {name, value} entries."""
+        if not isinstance(value, (list, tuple)):
+            raise RequestError(f'{path}: must be a list of {{name, value}} entries (got {describe_type(value)})')
+        pairs = []
+        for index, entry in enumerate(value):
+            if not isinstance(entry, Mapping) or set(entry) != {'name', 'value'}:
+                raise RequestError(f'{path}[{index}]: must be a mapping with name and value (got {entry!r})')
+            pairs.append((entry['name'], entry['value']))
+        return tuple(check_value_fields(label, pairs, path).items())
 
     def _label(self, value: Any, path: str) -> InformationInstance:
         return canonical_instance(self._instance(value, path))

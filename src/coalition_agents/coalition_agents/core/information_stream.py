@@ -19,7 +19,10 @@ F_T(X, Y)  ``torque``: the torque X exerts on Y about Y's centre (N m)
 F_M        no fields (the map is a priori)
 =========  ===========================================================================
 
-A type the table does not name (a library may add types) takes any finite numbers.
+A type the table does not name (a library may add types) takes any finite numbers (at most
+:data:`MAX_FIELDS`). Sensor reports give a value as a mapping (:func:`check_value`); on the agent
+channel it is a list of name/number pairs (``coalition_interfaces/NamedValue[] values`` of an
+INFORMATION AgentMessage, :func:`check_value_fields`), each field at most once.
 
 :class:`InformationStream` is one robot's record of streamed values: the latest value per
 (provider, instance) wins -- by the provider's sequence number, since links reorder messages --
@@ -54,13 +57,42 @@ MAX_FIELDS = 16
 
 
 def check_value(label: str, value: Any, path: str = 'values') -> dict[str, float]:
-    """The value of an instance of type ``label`` as a plain dict of floats; RequestError (a
-    ValueError) naming the field otherwise."""
+    """The value of an instance of type ``label``, given as a mapping of field name -> number
+    (a sensor report), as a plain dict of floats; RequestError (a ValueError) naming the field
+    otherwise."""
     if not isinstance(value, Mapping):
         raise RequestError(f'{path}: must be a mapping of field name -> number (got {describe_type(value)})')
+    return _checked_fields(label, list(value.items()), path)
+
+
+def check_value_fields(label: str, fields: Iterable[tuple[Any, Any]], path: str = 'values') -> dict[str, float]:
+    """The value of an instance of type ``label``, given as (name, number) pairs in order (the
+    wire form: AgentMessage ``values``, a list of NamedValue), as a plain dict of floats.
+
+    Besides what :func:`check_value` checks, every field appears once: a mapping cannot repeat a
+    key, a list can, and silently keeping one of two numbers would hide a sender's bug."""
+    pairs = list(fields)
+    seen: dict[str, int] = {}
+    for index, (name, _) in enumerate(pairs):
+        if not isinstance(name, str) or not name:
+            raise RequestError(f'{path}[{index}].name: must be a non-empty field name (got {describe_type(name)} '
+                               f'{name!r})')
+        if name in seen:
+            raise RequestError(f'{path}.{name}: given twice (at {path}[{seen[name]}] and {path}[{index}]; '
+                               f'each field of a value appears once)')
+        seen[name] = index
+    return _checked_fields(label, pairs, path)
+
+
+def _checked_fields(label: str, pairs: list[tuple[Any, Any]], path: str) -> dict[str, float]:
+    """The checks both forms share: known field names for a listed type, finite numbers, the
+    required fields present, at most MAX_FIELDS for an unlisted type. Errors read
+    ``<path>.<field>: ...``."""
     fields = VALUE_FIELDS.get(label)
+    if fields is None and len(pairs) > MAX_FIELDS:
+        raise RequestError(f'{path}: at most {MAX_FIELDS} fields (got {len(pairs)})')
     checked: dict[str, float] = {}
-    for name, number in value.items():
+    for name, number in pairs:
         if not isinstance(name, str) or not name:
             raise RequestError(f'{path}: field names must be non-empty strings (got {name!r})')
         if fields is not None and name not in fields[0] + fields[1]:
@@ -73,8 +105,6 @@ def check_value(label: str, value: Any, path: str = 'values') -> dict[str, float
         missing = [name for name in fields[0] if name not in checked]
         if missing:
             raise RequestError(f'{path}.{missing[0]}: missing required field of a {label} value')
-    elif len(checked) > MAX_FIELDS:
-        raise RequestError(f'{path}: at most {MAX_FIELDS} fields (got {len(checked)})')
     return checked
 
 
@@ -138,4 +168,4 @@ class InformationStream:
                 del self._latest[key]
 
 
-__all__ = ['InformationStream', 'MAX_FIELDS', 'StreamedValue', 'VALUE_FIELDS', 'check_value']
+__all__ = ['InformationStream', 'MAX_FIELDS', 'StreamedValue', 'VALUE_FIELDS', 'check_value', 'check_value_fields']

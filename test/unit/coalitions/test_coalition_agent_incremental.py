@@ -1,0 +1,184 @@
+"""SchemaAgent's event-driven evaluation: the same offers and coalitions as re-instantiating
+everything on every tick, and no work when nothing changed."""
+from __future__ import annotations
+
+import collections
+
+import pytest
+
+from coalition_agents.core import load_capability_file
+from coalition_agents.core.agent import SchemaAgent
+from coalition_agents.core.capabilities import capability_file_from_dict
+from coalition_agents.core.sim_scenarios import COLUMN_TYPES, capability_file, column_placements
+
+
+class Wire:
+    """Lossless FIFO transport that logs every offer sent (in order)."""
+
+    def __init__(self):
+        self.queue = collections.deque()
+        self.agents: dict[str, SchemaAgent] = {}
+        self.offers: list[tuple] = []
+
+    def outbox(self, robot):
+        wire = self
+
+        class Outbox:
+            def set_sensor(self, sensor, active):
+                pass
+
+            def send_request(self, request, recipients):
+                for recipient in recipients:
+                    wire.queue.append(('request', recipient, request, robot))
+
+            def send_offer(self, offer, reply_to):
+                wire.offers.append((offer.provider, reply_to, str(offer.request), str(offer.instance), offer.cost,
+                                    offer.members))
+                wire.queue.append(('offer', reply_to, offer, robot))
+        return Outbox()
+
+    def round(self, now):
+        for agent in self.agents.values():
+            agent.tick(now)
+        delivered = len(self.queue)
+        while self.queue:
+            kind, recipient, payload, sender = self.queue.popleft()
+            if kind == 'request':
+                self.agents[recipient].on_request(payload, sender)
+            else:
+                self.agents[recipient].on_offer(payload)
+        return delivered
+
+
+def column(library, costs, tasks, robots, incremental):
+    team = dict(capability_file_from_dict(capability_file(column_placements(robots), COLUMN_TYPES), library).robots)
+    wire = Wire()
+    for k in range(1, robots + 1):
+        robot = f'robot_{k}'
+        task = tasks['navigation'] if k == robots else None
+        wire.agents[robot] = SchemaAgent(robot, team, library, costs, task, wire.outbox(robot),
+                                         team_task=tasks['navigation'], reading_timeout_s=1.0,
+                                         incremental=incremental)
+    return wire
+
+
+def sense(wire, robots, now, blind_sees_ahead=True):
+    """Every robot sees the one ahead (the back robot only if ``blind_sees_ahead``), the front
+    robot localises; every robot's laser reports."""
+    for k in range(1, robots + 1):
+        agent = wire.agents[f'robot_{k}']
+        ahead = [f'robot_{k - 1}'] if k > 1 and (k < robots or blind_sees_ahead) else []
+        agent.observe('fiducial', now, ahead)
+        agent.observe('laser', now)
+        if k == 1:
+            agent.observe('gps', now)
+
+
+def snapshot(wire, now):
+    state = {}
+    for robot, agent in wire.agents.items():
+        state[robot] = {str(variant): {str(a): (c, m) for a, (c, m, _) in space.best.items()}
+                        for variant, space in agent.spaces.items()}
+        if agent.task is not None:
+            state[robot]['coalitions'] = [(c.cost, c.members, tuple(c.lcs.step_lines())) for c in agent.coalitions(now)]
+    return state
+
+
+def scripted_run(library, costs, tasks, incremental, robots=4):
+    """The back robot first sees nobody, then the robot ahead; later the front robot's GPS stops
+    reporting (its reading expires) and comes back."""
+    wire = column(library, costs, tasks, robots, incremental)
+    snapshots = []
+    sense(wire, robots, 0.0, blind_sees_ahead=False)
+    wire.agents[f'robot_{robots}'].start()
+    now = 0.0
+    for step in range(40):
+        now = round(now + 0.1, 3)
+        if step < 5:
+            sense(wire, robots, now, blind_sees_ahead=False)
+        elif step < 20 or step >= 35:                # from step 5 the back robot sees the robot ahead
+            sense(wire, robots, now)                 # readings stay current
+        else:                                        # steps 20..34: robot_1's GPS is silent
+            for k in range(2, robots + 1):
+                wire.agents[f'robot_{k}'].observe('fiducial', now, [f'robot_{k - 1}'])
+                wire.agents[f'robot_{k}'].observe('laser', now)
+        wire.round(now)
+        snapshots.append(snapshot(wire, now))
+    return wire, snapshots
+
+
+def test_incremental_evaluation_sends_the_same_offers_and_finds_the_same_coalitions(library, costs, tasks):
+    full, full_snapshots = scripted_run(library, costs, tasks, incremental=False)
+    fast, fast_snapshots = scripted_run(library, costs, tasks, incremental=True)
+    assert fast.offers == full.offers                        # the same offers, in the same order
+    assert fast_snapshots == full_snapshots                  # the same best answers and coalitions at every step
+    back = fast_snapshots[-1]['robot_4']['coalitions']
+    assert back and back[0][1] == ('robot_4', 'robot_1', 'robot_2', 'robot_3')
+    # The script did change the result on the way: nothing executable before the back robot saw
+    # the robot ahead; while robot_1's GPS was silent (its reading expired) robot_1 could provide
+    # F_G(robot_1) only through robot_2 (offers already sent are not withdrawn, so the leader
+    # keeps its list).
+    assert fast_snapshots[3]['robot_4']['coalitions'] == []
+    assert fast_snapshots[15]['robot_4']['coalitions']
+    assert fast_snapshots[15]['robot_1']['F_G(local)']['F_G(robot_1)'] == (7.0, ('robot_1',))
+    assert fast_snapshots[33]['robot_1']['F_G(local)']['F_G(robot_1)'][1] == ('robot_1', 'robot_2')
+    assert fast_snapshots[39]['robot_1']['F_G(local)'] == fast_snapshots[15]['robot_1']['F_G(local)']
+    work = lambda wire: sum(agent.evaluations for agent in wire.agents.values())  # noqa: E731
+    assert work(fast) < work(full) / 5
+
+
+def test_an_unchanged_tick_does_no_work(library, costs, tasks):
+    wire = column(library, costs, tasks, 3, incremental=True)
+    sense(wire, 3, 0.0)
+    wire.agents['robot_3'].start()
+    for _ in range(10):
+        if not wire.round(0.0):
+            break
+    assert wire.agents['robot_3'].coalitions(0.0)
+    before = {robot: agent.evaluations for robot, agent in wire.agents.items()}
+    for now in (0.1, 0.2, 0.3):
+        sense(wire, 3, now)                                  # same readings reported again
+        assert wire.round(now) == 0                          # nothing sent
+        wire.agents['robot_3'].coalitions(now)
+    assert {robot: agent.evaluations for robot, agent in wire.agents.items()} == before
+    assert not any(agent.pending() for agent in wire.agents.values())
+
+
+def test_a_new_subscriber_gets_the_existing_answers_without_reevaluation(library, costs, tasks):
+    wire = column(library, costs, tasks, 3, incremental=True)
+    sense(wire, 3, 0.0)
+    wire.agents['robot_3'].start()
+    for _ in range(10):
+        if not wire.round(0.0):
+            break
+    helper = wire.agents['robot_1']
+    space = next(space for space in helper.spaces.values() if space.best and
+                 any(request.requester == 'robot_3' for request, _ in space.subscribers))
+    request, _ = next((r, to) for r, to in space.subscribers if r.requester == 'robot_3')
+    evaluations, sent = helper.evaluations, len(wire.offers)
+    helper.on_request(request, 'robot_3')                    # e.g. a re-forming leader asks again
+    helper.tick(0.0)
+    assert helper.evaluations == evaluations
+    new = wire.offers[sent:]
+    assert new and all(offer[0] == 'robot_1' and offer[1] == 'robot_3' for offer in new)
+    assert {offer[3] for offer in new} == {str(a) for a in space.best if str(a) in {o[3] for o in new}}
+
+
+def test_a_changed_reading_reevaluates_only_what_uses_that_sensor(library, costs, tasks):
+    wire = column(library, costs, tasks, 3, incremental=True)
+    sense(wire, 3, 0.0)
+    wire.agents['robot_3'].start()
+    for _ in range(10):
+        if not wire.round(0.0):
+            break
+    back = wire.agents['robot_3']
+    seeing = back.coalitions(0.0)
+    before = back.evaluations
+    back.observe('fiducial', 0.1, [])                        # it loses sight of the robot ahead
+    blind = back.coalitions(0.1)
+    uses_fiducial = [index for index, solution in enumerate(back.root)
+                     if any(sensor == 'fiducial' for sensor, _ in back.reasoner.sensing_needs(solution))]
+    assert 0 < len(uses_fiducial) < len(back.root)
+    assert back.evaluations - before == len(uses_fiducial)  # only the solutions using the fiducial
+    assert len(blind) < len(seeing)
+    assert not any('EPS fiducial' in line for coalition in blind for line in coalition.lcs.step_lines())
