@@ -7,7 +7,7 @@ import time
 import pytest
 
 from collab_tools.orchestration.domain import DomainUnavailableError, acquire_domain
-from collab_tools.orchestration.experiment import ExperimentError, load_experiment
+from collab_tools.orchestration.experiment import ExperimentError, _finished_as_awaited, load_experiment
 from collab_tools.orchestration.node_process import NodeProcess, NodeSpec
 
 IGNORES_SIGINT = ('import signal, time\n'
@@ -81,3 +81,21 @@ def test_experiment_file_errors_name_the_field(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(ExperimentError, match=message.replace('[', r'\[')):
         load_experiment(path)
+
+
+class _FinishedNode:
+    def __init__(self, name, code):
+        self.name, self._code = name, code
+
+    def poll(self):
+        return self._code
+
+
+@pytest.mark.parametrize('until, node, expected', [
+    ({'exit': 'host'}, _FinishedNode('host', 0), True),        # finished during an after_start wait
+    ({'exit': 'host'}, _FinishedNode('host', 1), False),       # failed: an error, not completion
+    ({'exit': 'host'}, _FinishedNode('bridge', 0), False),     # another node ended early
+    ({'seconds': 5}, _FinishedNode('host', 0), False),
+])
+def test_only_the_awaited_node_exiting_cleanly_counts_as_completion(until, node, expected):
+    assert _finished_as_awaited(until, node) is expected

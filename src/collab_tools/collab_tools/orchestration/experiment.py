@@ -151,7 +151,11 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             condition_met = _wait_until(session, data['until'], timeout)
             message = 'completion condition met' if condition_met else 'timed out'
         except NodeExitedError as error:
-            message = str(error)
+            if _finished_as_awaited(data['until'], error.node):
+                # The awaited node finished while an after_start step was still waiting (a fast run).
+                condition_met, message = True, 'completion condition met'
+            else:
+                message = str(error)
         except TimeoutError as error:
             message = str(error)
         session.condition_met = condition_met
@@ -176,6 +180,12 @@ def _run_step(session: Session, step, path: str) -> None:
         time.sleep(float(step['sleep']))
     else:
         raise ExperimentError(f'{path}: expected one of wait_for_message, call, sleep')
+
+
+def _finished_as_awaited(until: dict, node) -> bool:
+    """True when ``node`` is the one ``until: {exit: ...}`` waits for and it exited with code 0."""
+    kind, spec = next(iter(until.items()))
+    return kind == 'exit' and str(spec) == node.name and node.poll() == 0
 
 
 def _wait_until(session: Session, until: dict, timeout: float) -> bool:
