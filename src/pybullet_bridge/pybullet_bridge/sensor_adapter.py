@@ -84,7 +84,8 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
             msg = FiducialDetections(field_of_view=reading.field_of_view, max_range=reading.max_range)
             msg.header.frame_id = self.frame_id
             msg.detections = [FiducialDetection(name=d.name, kind=d.kind, range=float(d.range),
-                                                bearing=float(d.bearing), x=float(d.x), y=float(d.y))
+                                                bearing=float(d.bearing), x=float(d.x), y=float(d.y),
+                                                yaw=float(d.yaw))
                               for d in reading.detections]
             return msg
         if isinstance(reading, LaserReading):

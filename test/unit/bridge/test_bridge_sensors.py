@@ -70,6 +70,23 @@ def test_fiducial_range_edge_and_relative_position():
     assert (near.x, near.y) == pytest.approx((0.0, 1.49), abs=1e-6)
 
 
+@pytest.mark.parametrize('own_yaw, other_yaw', [(0.0, 0.0), (0.3, 1.2), (-2.5, 2.9), (math.pi / 2, -math.pi / 2)])
+def test_fiducial_reports_the_seen_robots_relative_orientation(own_yaw, other_yaw):
+    robots = [sensing_robot({'fiducial': {'fov_deg': 360.0, 'range': 3.0}}, pose=(0.0, 0.0, own_yaw)),
+              robot(name='robot_2', pose=[1.2, 0.4, other_yaw], color=[0.1, 0.9, 0.1])]
+    with make_scene(robots) as scene:
+        detection = seen(scene)['robot_2']
+    expected = (other_yaw - own_yaw + math.pi) % (2 * math.pi) - math.pi
+    assert math.cos(detection.yaw - expected) == pytest.approx(1.0, abs=1e-9)
+    # The robot's own position in robot_2's frame follows from (x, y, yaw) alone: the inversion
+    # a teammate computes from this detection (F_R(Y, X) => F_R(X, Y)).
+    c, s = math.cos(detection.yaw), math.sin(detection.yaw)
+    back = (-(c * detection.x + s * detection.y), -(-s * detection.x + c * detection.y))
+    dx, dy = -1.2, -0.4
+    co, so = math.cos(other_yaw), math.sin(other_yaw)
+    assert back == pytest.approx((co * dx + so * dy, -so * dx + co * dy), abs=1e-6)
+
+
 def test_fiducial_occlusion_by_a_box_and_removing_it_restores_the_view():
     robots = [sensing_robot({'fiducial': {'fov_deg': 180.0, 'range': 3.0}}, pose=(-1.0, 0.0, 0.0)),
               robot(name='robot_2', pose=[1.0, 0.0, 0.0], color=[0.1, 0.9, 0.1])]
@@ -95,7 +112,8 @@ def test_fiducial_view_is_blocked_by_the_robot_in_front():
 
 def test_fiducial_kinds_and_noise_are_seeded():
     sensors = {'seed': 3, 'fiducial': {'fov_deg': 360.0, 'range': 3.0, 'kinds': ['target'],
-                                       'range_noise_std': 0.05, 'bearing_noise_std': 0.02}}
+                                       'range_noise_std': 0.05, 'bearing_noise_std': 0.02,
+                                       'yaw_noise_std': 0.03}}
     robots = [sensing_robot(sensors), robot(name='robot_2', pose=[1.0, 0.0, 0.0], color=[0.1, 0.9, 0.1])]
 
     def readings():
@@ -110,6 +128,8 @@ def test_fiducial_kinds_and_noise_are_seeded():
     bearings = np.array([detections[0].bearing for detections in first])
     assert ranges.std() == pytest.approx(0.05, rel=0.2) and abs(ranges.mean() - 1.0) < 0.02
     assert bearings.std() == pytest.approx(0.02, rel=0.2) and abs(bearings.mean() - math.pi / 2) < 0.01
+    yaws = np.array([detections[0].yaw for detections in first])
+    assert yaws.std() == pytest.approx(0.03, rel=0.2) and abs(yaws.mean()) < 0.01
     xy = np.array([(d[0].x, d[0].y) for d in first])
     assert np.allclose(np.hypot(xy[:, 0], xy[:, 1]), ranges)
 

@@ -59,6 +59,7 @@ Schema (defaults shown; fields without a default are required)::
             range: 4.0                # m, centre to centre, (0, 100]
             range_noise_std: 0.0      # m, >= 0, added to the reported range
             bearing_noise_std: 0.0    # rad, >= 0, added to the reported bearing
+            yaw_noise_std: 0.0        # rad, >= 0, added to the reported relative orientation
             kinds: [mobile_robot, target, movable_box]   # which kinds it detects
                                       # (seen = within range and FOV and in line of sight: a ray to
                                       # the entity's centre hits no other body first)

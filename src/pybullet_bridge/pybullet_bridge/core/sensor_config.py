@@ -43,6 +43,7 @@ class FiducialConfig:
     rate: float
     range_noise_std: float     # m
     bearing_noise_std: float   # rad
+    yaw_noise_std: float       # rad, on the marker's relative orientation
     kinds: tuple[str, ...]     # entity kinds it detects
     active: bool
 
@@ -113,7 +114,7 @@ def _rate(fields: Fields) -> float:
 
 def _parse_fiducial(value: Any, path: str) -> FiducialConfig:
     fields = Fields({} if value is None else value, path, allowed=(
-        'fov_deg', 'range', 'rate', 'range_noise_std', 'bearing_noise_std', 'kinds', 'active'))
+        'fov_deg', 'range', 'rate', 'range_noise_std', 'bearing_noise_std', 'yaw_noise_std', 'kinds', 'active'))
     kinds = FIDUCIAL_KINDS
     if fields.has('kinds'):
         kinds_path = fields.path_of('kinds')
@@ -129,6 +130,7 @@ def _parse_fiducial(value: Any, path: str) -> FiducialConfig:
         rate=_rate(fields),
         range_noise_std=fields.number('range_noise_std', 0.0, ge=0.0),
         bearing_noise_std=fields.number('bearing_noise_std', 0.0, ge=0.0),
+        yaw_noise_std=fields.number('yaw_noise_std', 0.0, ge=0.0),
         kinds=kinds, active=_active(fields))
 
 

@@ -59,6 +59,7 @@ class FiducialDetectionData:
     bearing: float   # rad, counter-clockwise from the heading
     x: float         # m, robot frame (x forward, y left)
     y: float
+    yaw: float       # rad, the entity's heading relative to the robot's (a marker's measured orientation)
 
 
 @dataclass(frozen=True)
@@ -184,20 +185,21 @@ def sense_fiducial(scene: Scene, robot: MobileRobot, config: FiducialConfig,
     sz = _sensor_height(robot)
     half_fov = math.radians(config.fov_deg) / 2.0
     start_offset = robot.params.radius + RAY_START_CLEARANCE
-    candidates = []  # (entity, distance, bearing, target centre)
+    candidates = []  # (entity, distance, bearing, target centre, relative yaw)
     for entity in scene.entities:
         if entity is robot or entity.kind not in config.kinds:
             continue
-        centre, _ = p.getBasePositionAndOrientation(entity.main_body, physicsClientId=client)
+        centre, orientation = p.getBasePositionAndOrientation(entity.main_body, physicsClientId=client)
         dx, dy = centre[0] - sx, centre[1] - sy
         distance = math.hypot(dx, dy)
         bearing = wrap_angle(math.atan2(dy, dx) - syaw)
         if distance > config.range or abs(bearing) > half_fov + 1e-12:
             continue
-        candidates.append((entity, distance, bearing, centre))
+        relative_yaw = wrap_angle(p.getEulerFromQuaternion(orientation)[2] - syaw)
+        candidates.append((entity, distance, bearing, centre, relative_yaw))
     # Line of sight: one ray per candidate, from just outside the robot to the target's centre.
     rays_from, rays_to, ray_owner = [], [], []
-    for index, (_, distance, bearing, centre) in enumerate(candidates):
+    for index, (_, distance, bearing, centre, _) in enumerate(candidates):
         if distance <= start_offset:
             continue  # touching the robot: nothing can be in between
         heading = syaw + bearing
@@ -212,15 +214,18 @@ def sense_fiducial(scene: Scene, robot: MobileRobot, config: FiducialConfig,
             if hit_body >= 0 and hit_body not in entity.body_ids and hit_body not in robot.body_ids:
                 blocked.add(index)
     detections = []
-    for index, (entity, distance, bearing, _) in enumerate(candidates):
+    for index, (entity, distance, bearing, _, relative_yaw) in enumerate(candidates):
         if index in blocked:
             continue
         if rng is not None and config.range_noise_std > 0.0:
             distance = max(0.0, distance + rng.normal(0.0, config.range_noise_std))
         if rng is not None and config.bearing_noise_std > 0.0:
             bearing = wrap_angle(bearing + rng.normal(0.0, config.bearing_noise_std))
+        if rng is not None and config.yaw_noise_std > 0.0:
+            relative_yaw = wrap_angle(relative_yaw + rng.normal(0.0, config.yaw_noise_std))
         detections.append(FiducialDetectionData(entity.name, entity.kind, distance, bearing,
-                                                distance * math.cos(bearing), distance * math.sin(bearing)))
+                                                distance * math.cos(bearing), distance * math.sin(bearing),
+                                                relative_yaw))
     return FiducialReading(field_of_view=2.0 * half_fov, max_range=config.range, detections=tuple(detections))
 
 
