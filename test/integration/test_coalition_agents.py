@@ -17,7 +17,7 @@ import yaml
 
 from collab_tools.orchestration.node_process import NodeSpec
 from bridge_helpers import body_pose, bridge_spec
-from coalition_interfaces.msg import AgentMessage, Information, NamedValue
+from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, Information, NamedValue
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file, load_costs, load_library, load_tasks
 from coalition_agents.core.live_sensing import LiveSensing
 
@@ -169,10 +169,14 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     # The helper streams what it committed to: its GPS pose F_G(helper) and its fiducial's view of
     # the leader F_R(pusher_r2, helper); composed (Table I), they put the leader where it truly is.
     def streamed(label, referents):
-        msg = session.wait_for_message(
-            f'/coalition/channel/{NAV_LEADER}', 'coalition_interfaces/msg/AgentMessage', timeout=20.0,
-            predicate=lambda m: (m.kind == 8 and m.sender == helper and m.receiver == NAV_LEADER
-                                 and m.instance.type == label and list(m.instance.referents) == referents))
+        # The inbox carries batches (AgentMessageBatch): one per sender and processing step.
+        def wanted(m):
+            return (m.kind == 8 and m.sender == helper and m.receiver == NAV_LEADER
+                    and m.instance.type == label and list(m.instance.referents) == referents)
+        batch = session.wait_for_message(
+            f'/coalition/channel/{NAV_LEADER}', 'coalition_interfaces/msg/AgentMessageBatch', timeout=20.0,
+            predicate=lambda b: b.sender == helper and any(wanted(m) for m in b.messages))
+        msg = next(m for m in batch.messages if wanted(m))
         assert msg.coalition_id == first.coalition_id
         return {entry.name: entry.value for entry in msg.values}
 
@@ -195,6 +199,22 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     deadline = time.monotonic() + 10.0
     while 'message.values.x: must be a finite number' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed information message was not reported'
+        time.sleep(0.1)
+    # The same inside a batch on the leader's inbox: that message is dropped with a message naming
+    # it, and a batch that claims another recipient is dropped whole; the leader keeps going.
+    inbox = session.observer.node.create_publisher(AgentMessageBatch, f'/coalition/channel/{NAV_LEADER}', 10)
+    while inbox.get_subscription_count() < 1:
+        assert time.monotonic() < deadline + 10.0, 'the leader is not on its inbox'
+        time.sleep(0.05)
+    bad_value = AgentMessage(message_id=8, sender=helper, receiver=NAV_LEADER, kind=8,
+                             instance=Information(type='F_G', referents=[helper]), coalition_id=first.coalition_id,
+                             values=[NamedValue(name='x', value=math.inf), NamedValue(name='y', value=0.0)])
+    inbox.publish(AgentMessageBatch(sender=helper, recipient=NAV_LEADER, sequence=10 ** 9, messages=[bad_value]))
+    inbox.publish(AgentMessageBatch(sender=helper, recipient=spare, sequence=10 ** 9 + 1, messages=[bad_value]))
+    deadline = time.monotonic() + 10.0
+    while not all(text in leader_log.read_text() for text in (
+            'batch.messages[0].values.x: must be a finite number', f"batch.recipient: this inbox is {NAV_LEADER}'s")):
+        assert time.monotonic() < deadline, 'the malformed batch contents were not reported'
         time.sleep(0.1)
     # The helper stops: its stream goes stale, the leader releases the coalition and re-forms it
     # with the spare GPS robot that also sees it.

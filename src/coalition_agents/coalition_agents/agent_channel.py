@@ -1,31 +1,43 @@
-"""The agent-to-agent channel of a coalition agent on ROS 2: one inbox topic per robot, a link
-model on the sending side, retries and commitments from :mod:`.core.reliable_channel`.
+"""The agent-to-agent channel of a coalition agent on ROS 2: one inbox topic per robot carrying
+batches, a link model on the sending side, retries and commitments from :mod:`.core.reliable_channel`.
 
-Every copy an agent sends is addressed to one robot (a broadcast is one copy per teammate) and
-is published on that robot's inbox ``/coalition/channel/<robot>`` (:func:`inbox_topic`;
-``coalition_interfaces/AgentMessage``, reliable QoS, so the only losses are the modelled ones).
-Why not one shared topic: a search of the Fig. 9 column of 10 robots puts ~12,000 copies on the
-channel in a few seconds; on one topic every agent would receive (and rclpy deserialise and
-dispatch) every copy -- ten times the traffic, which is what made the agents fall behind. An
-agent still listens on the shared ``/coalition/channel`` too (messages addressed to another robot
-are dropped unread; a message without receiver is for everyone), which tools and tests may use,
-and whose subscriber count tells that the team is up. Each copy goes through the sender's
-:class:`~.core.link_model.LinkModel` first: dropped, or published after the sampled delay by a
-delay queue on the node's clock (sim time when ``use_sim_time`` is set).
+Aggregation (:mod:`.core.batching`): an agent does not publish its logical messages one by one.
+It buffers them per recipient and publishes, at the end of each processing step, ONE
+``coalition_interfaces/AgentMessageBatch`` per recipient on that robot's inbox
+``/coalition/channel/<robot>`` (:func:`inbox_topic`; reliable QoS, so the only losses are the
+modelled ones). ACKs are not messages of their own: their ids ride in ``acked_ids`` of the next
+batch to that robot, or in an ack-only batch after ``ack_delay_s`` (default: the tick period)
+if nothing else goes there. Negotiation messages (COMMIT_REQUEST/ACCEPT/REJECT, RELEASE) are
+flushed at once and processed first on receipt. "End of the processing step" is a guard condition
+triggered by the first message queued: rclpy's executor runs it after the callbacks that were
+ready together (e.g. a burst of batches and the agent's re-evaluation), so one step's messages to
+one robot leave as one batch. Why: one ROS message per logical message (plus one per ACK) was
+~12,000-31,000 ROS messages for the Fig. 9 column of 10; their per-message cost in rclpy, not the
+algorithm, starved the agents.
 
-Cost per message matters (rclpy's executor rebuilds its wait set on every wait, so every entity
-costs on every callback): the channel has no QoS event handlers on its endpoints, and delayed
-copies wait in one queue per agent instead of a one-shot timer each. The queue is drained on the
-channel's ``tick_s`` timer and whenever the agent handles a channel message, so a copy leaves at
-its sampled delay or up to ``tick_s`` later (the link model's delay plus at most 10 ms by default;
-during a search the agent handles messages every few ms, so usually much less). Received messages are converted to the codec's dict
-form, validated (:class:`~.core.channel_codec.ChannelCodec`), run through the
+Each batch goes through the sender's :class:`~.core.link_model.LinkModel`: ONE loss draw and ONE
+delay sample per batch (a lost batch loses every message and ack in it; the retries re-send the
+unacknowledged ones, each retry only the logical messages still unanswered). So an experiment's
+loss probability is per batch. Delayed batches wait in one queue per agent, drained on the
+channel's ``tick_s`` timer, at each flush and whenever a batch arrives: a batch leaves at its
+sampled delay or up to ``tick_s`` later.
+
+Received batches are validated (:func:`~.core.batching.decode_batch`: a batch from an unknown
+robot or for another robot is logged and dropped whole; a malformed message inside a batch is
+logged and dropped alone, the others are processed), run through the
 :class:`~.core.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
-ACKs, commitment answers) and handed to ``on_message``. A malformed message is logged and
-dropped; the channel never raises from a ROS callback.
+ACKs, commitment answers) and handed to ``on_message``: negotiation messages at once, requests,
+offers and streamed values in slices of at most ``work_slice_s`` of the agent's processing
+(a guard condition), so the inbox is drained -- and every message acknowledged -- without
+waiting for the agent's reasoning, and a COMMIT_REQUEST is never queued behind it. The channel
+never raises from a ROS callback.
 
-Streamed information (kind INFORMATION = 8, :meth:`AgentChannel.stream`) goes through the same
-link model but is never acknowledged or retried (the latest value wins). Its values travel in
+The shared topic ``/coalition/channel`` still carries single ``AgentMessage`` s for tools and
+tests (a message addressed to another robot is dropped unread; one without receiver is for
+everyone); the agents themselves only publish batches.
+
+Streamed information (kind INFORMATION = 8, :meth:`AgentChannel.stream`) goes into the same
+batches but is never acknowledged or retried (the latest value wins). Its values travel in
 AgentMessage's ``values`` (``NamedValue[]``: ``{name: x, value: 1.2}, ...``), checked by the
 codec like every other field.
 
@@ -41,14 +53,16 @@ from __future__ import annotations
 import heapq
 import itertools
 import time
+from collections import deque
 from typing import Callable, Iterable, Sequence
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from coalition_interfaces.msg import AgentMessage, ChainLink, Information, NamedValue
+from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
+from .core.batching import URGENT_KINDS, Batch, Outbox, decode_batch
 from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
 from .core.errors import CoalitionError
 from .core.link_model import LinkModel
@@ -121,6 +135,20 @@ def from_ros(msg: AgentMessage) -> dict:
     return data
 
 
+def batch_to_ros(batch: Batch) -> AgentMessageBatch:
+    """The AgentMessageBatch of a core batch."""
+    return AgentMessageBatch(sender=batch.sender, recipient=batch.recipient, sequence=batch.sequence,
+                             messages=[to_ros(message) for message in batch.messages],
+                             acked_ids=list(batch.acked_ids))
+
+
+def batch_from_ros(msg: AgentMessageBatch) -> dict:
+    """The dict form :func:`~.core.batching.decode_batch` reads; ``messages`` stay AgentMessages
+    (converted one by one with :func:`from_ros`, so one malformed message fails alone)."""
+    return {'sender': msg.sender, 'recipient': msg.recipient, 'sequence': int(msg.sequence),
+            'messages': list(msg.messages), 'acked_ids': [int(acked) for acked in msg.acked_ids]}
+
+
 def _information(data: dict) -> Information:
     return Information(type=data['type'], referents=list(data['referents']))
 
@@ -130,18 +158,20 @@ def _information_dict(info: Information) -> dict:
 
 
 class AgentChannel:
-    """One robot's end of the shared agent channel (see the module docstring).
+    """One robot's end of the agent channel (see the module docstring).
 
     ``on_message(message, received)`` gets every new message for this robot (REQUEST, OFFER,
     COMMIT_REQUEST with ``received.accepted`` already decided and answered, COMMIT_ACCEPT /
-    COMMIT_REJECT, RELEASE); ``on_undelivered(undelivered)`` every copy given up after the
-    retries. ``tick_s`` is the period of the retry timer.
+    COMMIT_REJECT, RELEASE, INFORMATION); ``on_undelivered(undelivered)`` every copy given up
+    after the retries. ``tick_s`` is the period of the retry timer; ``ack_delay_s`` (default
+    ``tick_s``) how long an ACK waits for a batch to ride on before it goes alone.
     """
 
     def __init__(self, node: Node, robot: str, codec: ChannelCodec, link_model: LinkModel, *,
                  team: Sequence[str], on_message: Callable[[ChannelMessage, Received], None],
                  on_undelivered: Callable[[Undelivered], None] | None = None,
-                 policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01):
+                 policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01,
+                 ack_delay_s: float | None = None, work_slice_s: float = 0.005):
         if robot not in codec.catalog.robots:
             raise CoalitionError(f"robot: {robot!r} is not in the codec's team ({', '.join(codec.robots)})")
         unknown = [name for name in team if name not in codec.catalog.robots]
@@ -156,26 +186,35 @@ class AgentChannel:
         self.on_undelivered = on_undelivered
         # A restarted agent must not reuse message ids its peers still remember: start from the clock.
         self.core = ReliableChannel(robot, policy, first_message_id=time.time_ns() // 1000)
-        self.dropped = 0
-        self.rejected = 0
-        self._delayed: list[tuple[float, int, AgentMessage]] = []  # (due, order, message): a heap
+        self.outbox = Outbox(robot, tick_s if ack_delay_s is None else ack_delay_s)
+        self.dropped = 0          # logical messages in batches the link model dropped
+        self.batches_dropped = 0
+        self.batches_published = 0
+        self.rejected = 0         # malformed messages (alone or inside a batch)
+        self.rejected_batches = 0
+        self._delayed: list[tuple[float, int, AgentMessageBatch]] = []  # (due, order, batch): a heap
         self._order = itertools.count()
-        # Deep enough for the burst of a whole search (the Fig. 9 column of 10 sends ~12,000 copies
-        # in a few seconds): a full KEEP_LAST queue silently replaces unread messages.
+        self._flush_scheduled = False
+        #: received REQUEST / OFFER / INFORMATION messages (already acknowledged) waiting for the agent
+        self._deferred: deque[tuple[ChannelMessage, Received]] = deque()
+        self._work_scheduled = False
+        self.work_slice_s = work_slice_s
+        # Deep enough for the burst of a whole search: a full KEEP_LAST queue silently replaces unread messages.
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
-        publisher = lambda name: node.create_publisher(  # noqa: E731
-            AgentMessage, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
-        subscribe = lambda name: node.create_subscription(  # noqa: E731
-            AgentMessage, name, self._on_wire, qos,
-            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        self.publisher = publisher(topic)
-        self.subscription = subscribe(topic)
+        publisher = lambda kind, name: node.create_publisher(  # noqa: E731
+            kind, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
+        subscribe = lambda kind, name, callback: node.create_subscription(  # noqa: E731
+            kind, name, callback, qos, event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        self.subscription = subscribe(AgentMessage, topic, self._on_wire)
         # Created up front: a publisher created at the first send would publish before it matched
-        # the receiver's subscription (volatile: that copy would be lost).
-        self.inboxes = {teammate: publisher(inbox_topic(teammate, topic)) for teammate in self.team if teammate != robot}
-        self.inbox = subscribe(inbox_topic(robot, topic))
+        # the receiver's subscription (volatile: that batch would be lost).
+        self.inboxes = {teammate: publisher(AgentMessageBatch, inbox_topic(teammate, topic))
+                        for teammate in self.team if teammate != robot}
+        self.inbox = subscribe(AgentMessageBatch, inbox_topic(robot, topic), self._on_batch)
         self.retry_timer = node.create_timer(tick_s, self._on_tick)
+        self.flush_trigger = node.create_guard_condition(self._on_flush)
+        self.work_trigger = node.create_guard_condition(self._on_work)
 
     # --- time ----------------------------------------------------------------------------------
     def now(self) -> float:
@@ -187,14 +226,13 @@ class AgentChannel:
     # --- sending -----------------------------------------------------------------------------------
     def send(self, message: ChannelMessage, recipients: Iterable[str] | None = None) -> list[ChannelMessage]:
         """Send ``message`` (to its receiver, or to ``recipients`` / the team if it is a broadcast);
-        returns the copies handed to the link. Our own messages are checked by the codec first:
+        returns the copies queued for the link. Our own messages are checked by the codec first:
         a bug here raises (a CoalitionError naming the field) instead of confusing the peers."""
         self.codec.check_outgoing(message)
         if not message.receiver and recipients is None:
             recipients = [robot for robot in self.team if robot != self.robot]
         copies = self.core.send(message, self.now(), recipients)
-        for copy in copies:
-            self._transmit(copy)
+        self._queue(copies)
         return copies
 
     def broadcast(self, message: ChannelMessage) -> list[ChannelMessage]:
@@ -205,8 +243,7 @@ class AgentChannel:
         """Start request-and-wait negotiation (``ReliableChannel.propose``); follow it with
         ``negotiation.state(channel.now())``."""
         negotiation, messages, reason = self.core.propose(coalition_id, members, cost, self.now(), hold_seconds)
-        for message in messages:
-            self._transmit(message)
+        self._queue(messages)
         return negotiation, reason
 
     def stream(self, receiver: str, coalition_id: str, instance, values) -> None:
@@ -214,41 +251,81 @@ class AgentChannel:
         self.send(information_message(self.robot, self.new_id(), receiver, coalition_id, instance, values))
 
     def release(self, coalition_id: str, reason: str = '') -> None:
-        for message in self.core.release(coalition_id, self.now(), reason):
-            self._transmit(message)
+        self._queue(self.core.release(coalition_id, self.now(), reason))
 
-    def _transmit(self, message: ChannelMessage) -> None:
-        """Apply the link model on the sending side: drop, or publish after the sampled delay."""
+    def _queue(self, messages: Iterable[ChannelMessage]) -> None:
+        """Put messages into the outbox: negotiation messages leave at once (with whatever else
+        waits for that robot), the rest at the end of the processing step."""
+        now = self.now()
+        urgent = [message.receiver for message in messages if self.outbox.put(message, now)]
+        if urgent:
+            self._transmit_all(self.outbox.flush(now, list(dict.fromkeys(urgent))))
+        if not self._flush_scheduled and self.outbox.has_messages():
+            self._flush_scheduled = True
+            self.flush_trigger.trigger()
+
+    def _on_flush(self) -> None:
+        self._flush_scheduled = False
+        self._release_due()
+        self._transmit_all(self.outbox.flush(self.now()))
+
+    def _transmit_all(self, batches: Iterable[Batch]) -> None:
+        for batch in batches:
+            self._transmit(batch)
+
+    def _transmit(self, batch: Batch) -> None:
+        """Apply the link model on the sending side, per batch: drop it, or publish it after the
+        sampled delay."""
         delivered, delay = self.link_model.sample()
         if not delivered:
-            self.dropped += 1
-            self.node.get_logger().debug(f'link model dropped {message}')
+            self.batches_dropped += 1
+            self.dropped += batch.logical_count
+            self.node.get_logger().debug(f'link model dropped batch {batch.sequence} {self.robot}->{batch.recipient} '
+                                         f'({len(batch.messages)} messages, {len(batch.acked_ids)} acks)')
             return
-        msg = to_ros(message)
+        msg = batch_to_ros(batch)
         if delay <= 0.0:
             self._publish(msg)
             return
         heapq.heappush(self._delayed, (self.now() + delay, next(self._order), msg))
 
     def _release_due(self) -> None:
-        """Publish the delayed copies whose time has come (see the module docstring)."""
+        """Publish the delayed batches whose time has come (see the module docstring)."""
         if not self._delayed:
             return
         now = self.now()
         while self._delayed and self._delayed[0][0] <= now:
             self._publish(heapq.heappop(self._delayed)[2])
 
-    def _publish(self, msg: AgentMessage) -> None:
+    def _publish(self, msg: AgentMessageBatch) -> None:
         msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.inboxes.get(msg.receiver, self.publisher).publish(msg)
+        self.inboxes[msg.recipient].publish(msg)
+        self.batches_published += 1
 
     def teammates_listening(self) -> int:
         """How many teammates' agents subscribe to their inbox (their agent is up)."""
         return sum(1 for publisher in self.inboxes.values() if publisher.get_subscription_count() > 0)
 
     # --- receiving ---------------------------------------------------------------------------------
-    def _on_wire(self, msg: AgentMessage) -> None:
+    def _on_batch(self, msg: AgentMessageBatch) -> None:
         self._release_due()
+        try:
+            decoded = decode_batch(self.codec, batch_from_ros(msg), self.robot, from_ros)
+        except (CoalitionError, ValueError) as exc:
+            self.rejected_batches += 1
+            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel batch {msg.sequence} from '
+                                           f'{msg.sender!r}: {exc}')
+            return
+        for index, why in decoded.rejected:
+            self.rejected += 1
+            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from {msg.sender!r} '
+                                           f'(batch {msg.sequence}, id {msg.messages[index].message_id}): {why}')
+        now = self.now()
+        for message in decoded.messages:
+            self._receive(message, now)
+
+    def _on_wire(self, msg: AgentMessage) -> None:
+        """A single message on the shared topic (tools, tests)."""
         if msg.sender == self.robot or (msg.receiver and msg.receiver != self.robot):
             return  # our own copies and other robots' mail: not for us (cheap check before decoding)
         try:
@@ -258,11 +335,37 @@ class AgentChannel:
             self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from '
                                            f'{msg.sender!r} (id {msg.message_id}): {exc}')
             return
-        received = self.core.receive(message, self.now())
-        for reply in received.replies:
-            self._transmit(reply)
-        if received.deliver is not None:
+        self._receive(message, self.now())
+
+    def _receive(self, message: ChannelMessage, now: float) -> None:
+        """Acknowledge / answer at once; hand negotiation messages to the agent at once, the
+        others in time slices (:meth:`_on_work`), so that the inbox never waits behind the
+        agent's reasoning: a COMMIT_REQUEST is answered while the helper is still busy with
+        requests and offers, and ACKs leave before the sender's retry timeout."""
+        received = self.core.receive(message, now)
+        self._queue(received.replies)
+        if received.deliver is None:
+            return
+        if received.deliver.kind in URGENT_KINDS:
             self._deliver(received.deliver, received)
+            return
+        self._deferred.append((received.deliver, received))
+        if not self._work_scheduled:
+            self._work_scheduled = True
+            self.work_trigger.trigger()
+
+    def _on_work(self) -> None:
+        """Deliver deferred messages for at most ``work_slice_s`` (wall), then let the executor
+        run the other callbacks (inboxes, timers) before the next slice."""
+        self._work_scheduled = False
+        end = time.perf_counter() + self.work_slice_s
+        while self._deferred:
+            self._deliver(*self._deferred.popleft())
+            if time.perf_counter() >= end:
+                break
+        if self._deferred:
+            self._work_scheduled = True
+            self.work_trigger.trigger()
 
     def _deliver(self, message: ChannelMessage, received: Received) -> None:
         try:
@@ -272,9 +375,11 @@ class AgentChannel:
 
     def _on_tick(self) -> None:
         self._release_due()
-        resend, failed = self.core.poll(self.now())
-        for message in resend:
-            self._transmit(message)
+        now = self.now()
+        resend, failed = self.core.poll(now)
+        self._queue(resend)
+        if now >= self.outbox.next_ack_due():
+            self._transmit_all(self.outbox.flush(now))  # ack-only batches (and anything else waiting)
         for undelivered in failed:
             self.node.get_logger().warning(f'{self.robot}: no answer from {undelivered.receiver} to '
                                            f'{undelivered.message} after {undelivered.attempts} sends')
@@ -285,16 +390,22 @@ class AgentChannel:
                     self.node.get_logger().error(f'{self.robot}: on_undelivered failed: {exc}')
 
     def stats(self) -> dict:
-        return {**self.core.stats.to_dict(), 'dropped': self.dropped, 'malformed': self.rejected}
+        return {**self.core.stats.to_dict(), 'dropped': self.dropped, 'malformed': self.rejected,
+                'malformed_batches': self.rejected_batches, 'batches_dropped': self.batches_dropped,
+                'batches_published': self.batches_published,
+                **{f'outbox_{key}': value for key, value in self.outbox.stats.to_dict().items()}}
 
     def destroy(self) -> None:
         self._delayed.clear()
         self.node.destroy_timer(self.retry_timer)
+        self.node.destroy_guard_condition(self.flush_trigger)
+        self.node.destroy_guard_condition(self.work_trigger)
+        self._deferred.clear()
         self.node.destroy_subscription(self.subscription)
         self.node.destroy_subscription(self.inbox)
-        self.node.destroy_publisher(self.publisher)
         for publisher in self.inboxes.values():
             self.node.destroy_publisher(publisher)
 
 
-__all__ = ['AgentChannel', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'from_ros', 'inbox_topic', 'to_ros']
+__all__ = ['AgentChannel', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'batch_from_ros', 'batch_to_ros', 'from_ros', 'inbox_topic',
+           'to_ros']

@@ -25,6 +25,9 @@ Parameters:
 * ``wait_for_recorder`` (s, default 0): offer ``/coalition/channel`` and the hosted robots'
   inboxes ``/coalition/channel/<robot>`` and wait up to this long for a subscriber of each (the
   bag recorder) before creating the agents, so the whole search is recorded.
+* ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
+  per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
+  of equal capabilities reuse each other's generated spaces instead of generating them again.
 * ``linger`` (s, default 1.0): once every hosted agent with ``exit_when_done`` is done, keep
   spinning this long (wall clock) so the last messages reach the recorder, then exit 0. Without
   any such agent the host spins until shutdown.
@@ -59,12 +62,15 @@ class _NodeOptions(Node):
                          context=self.node_context, **kwargs)
 
 
-def hosted_agent(node_name: str, robot: str, parameter_file: Path, use_sim_time: bool, context=None) -> SchemaAgentNode:
-    """A SchemaAgentNode named ``node_name`` reading its parameters from ``parameter_file``."""
+def hosted_agent(node_name: str, robot: str, parameter_file: Path, use_sim_time: bool, context=None,
+                 solution_caches: dict | None = None) -> SchemaAgentNode:
+    """A SchemaAgentNode named ``node_name`` reading its parameters from ``parameter_file``
+    (``solution_caches``: shared between the hosted agents, see SchemaAgentNode)."""
     arguments = ['--ros-args', '-r', f'__node:={node_name}', '--params-file', str(parameter_file),
                  '-p', f'robot:={robot}', '-p', f'use_sim_time:={"true" if use_sim_time else "false"}']
     node_class = type(f'HostedSchemaAgent_{robot}', (SchemaAgentNode, _NodeOptions),
-                      {'node_arguments': arguments, 'node_context': context})
+                      {'node_arguments': arguments, 'node_context': context,
+                       'shared_solution_caches': solution_caches})
     return node_class()
 
 
@@ -78,7 +84,9 @@ class AgentHost(Node):
                 ('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done, >= 0'),
                 ('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag '
                                            'recorder) before the agents start; 0 = do not wait'),
-                ('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)")):
+                ('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)"),
+                ('share_solution_spaces', True, 'one solution-space cache for the hosted agents (robots of equal '
+                                                'capabilities reuse generated spaces)')):
             declare_parameter(self, name, default, description)
         robots = self.get_parameter('robots').value
         if not isinstance(robots, (list, tuple)) or not robots or not all(isinstance(r, str) and r for r in robots):
@@ -99,16 +107,19 @@ class AgentHost(Node):
         if self.executor_kind not in ('single', 'multi'):
             raise ConfigurationError(f"parameter executor: must be 'single' or 'multi' (got {self.executor_kind!r})")
         self.agents: list[SchemaAgentNode] = []
+        self.share_solution_spaces = bool(self.get_parameter('share_solution_spaces').value)
 
     def wait_for_channel_recorder(self) -> bool:
         """Offer the agent channel and wait until someone (the recorder) subscribes, so that the
         first requests of the search are recorded too (a recorder subscribes only to offered topics)."""
         if self.wait_for_recorder <= 0:
             return True
-        from coalition_interfaces.msg import AgentMessage
+        from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
         from .agent_channel import DEFAULT_TOPIC, inbox_topic
         topics = [DEFAULT_TOPIC] + [inbox_topic(robot) for robot in self.robots]
-        publishers = [self.create_publisher(AgentMessage, topic, 10) for topic in topics]
+        # The inboxes carry batches, the shared topic single messages (agent_channel).
+        publishers = [self.create_publisher(AgentMessage if topic == DEFAULT_TOPIC else AgentMessageBatch, topic, 10)
+                      for topic in topics]
         deadline = time.monotonic() + self.wait_for_recorder
         while any(p.get_subscription_count() == 0 for p in publishers) and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -123,9 +134,10 @@ class AgentHost(Node):
     def start_agents(self) -> None:
         use_sim_time = bool(self.get_parameter('use_sim_time').value)
         prefix, path = self.prefix, self.parameter_file
+        caches: dict | None = {} if self.share_solution_spaces else None
         for robot in self.robots:
             try:
-                self.agents.append(hosted_agent(f'{prefix}{robot}', robot, path, use_sim_time))
+                self.agents.append(hosted_agent(f'{prefix}{robot}', robot, path, use_sim_time, solution_caches=caches))
             except ConfigurationError as error:
                 self.destroy_agents()
                 raise ConfigurationError(f'agent {prefix}{robot}: {error}') from None

@@ -95,6 +95,7 @@ from .core.motor_schema import STOP, BoxPush, GoToGoal, HeadingEstimator, Mainta
 from .core.link_model import LinkModel
 from .core.reliable_channel import Negotiation, Received, RetryPolicy
 from .core.schemas import load_costs, load_library
+from .core.solution_space import SolutionSpaceCache
 from .core.tasks import load_tasks
 
 #: Bridge sensors: name -> (topic suffix, message type).
@@ -107,6 +108,12 @@ BRIDGE_SENSORS = {
 
 
 class SchemaAgentNode(Node):
+    #: Set by schema_agent_host to share solution spaces between its agents (None: each its own):
+    #: (schemas file, costs file) -> SolutionSpaceCache. Robots of equal capabilities then reuse
+    #: each other's generated, memoised sub-trees (the reasoning is deterministic, so sharing it
+    #: changes no result, only the CPU time of the process).
+    shared_solution_caches: dict | None = None
+
     def __init__(self):
         super().__init__('schema_agent')
         for name, default, description in (
@@ -209,8 +216,12 @@ class SchemaAgentNode(Node):
         ack_timeout = self._positive(p, 'ack_timeout')
         retry = RetryPolicy(ack_timeout_s=ack_timeout, max_timeout_s=max(2.0, ack_timeout), max_retries=6)
         try:
+            cache = None
+            if self.shared_solution_caches is not None:
+                key = (str(files['schemas_file'].resolve()), str(files['costs_file'].resolve()))
+                cache = self.shared_solution_caches.setdefault(key, SolutionSpaceCache(library, costs))
             self.agent = SchemaAgent(self.robot, team, library, costs, task, self, team_task=team_task,
-                                     reading_timeout_s=reading_timeout)
+                                     reading_timeout_s=reading_timeout, cache=cache)
             if task is not None:
                 self.agent.reasoner.task_space()  # the robot must be able to run the task's MS
         except (CoalitionError, ValueError) as exc:

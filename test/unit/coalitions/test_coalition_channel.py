@@ -277,7 +277,8 @@ def test_retry_policy_backoff_and_validation():
     policy = RetryPolicy(ack_timeout_s=0.05, backoff=2.0, max_timeout_s=0.3, max_retries=4)
     assert [policy.timeout(k) for k in range(5)] == pytest.approx([0.05, 0.1, 0.2, 0.3, 0.3])
     assert policy.give_up_after() == pytest.approx(0.95)
-    assert policy.duplicate_memory_s == pytest.approx(2.9)
+    assert policy.longest_give_up() == pytest.approx(1.5)  # every timeout at max_timeout_s (adaptive)
+    assert policy.duplicate_memory_s == pytest.approx(4.0)
     for data, message in [({'ack_timeout_s': 0}, 'retry.ack_timeout_s: must be a number > 0'),
                           ({'backoff': 0.5}, 'retry.backoff: must be a number >= 1'),
                           ({'max_retries': -1}, 'retry.max_retries: must be an integer >= 0'),

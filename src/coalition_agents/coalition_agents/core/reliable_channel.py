@@ -14,6 +14,12 @@ Delivery (:class:`ReliableChannel`)
       COMMIT_ACCEPT / COMMIT_REJECT. Without an answer the copy is re-sent after
       ``ack_timeout_s * backoff^k`` (capped at ``max_timeout_s``); after ``max_retries`` re-sends it
       is reported :class:`Undelivered`.
+    * The first timeout towards a robot adapts to the measured round trip (RFC 6298: smoothed
+      round-trip time plus four times its variation, from answers to messages sent once -- Karn's
+      rule), between ``ack_timeout_s`` and ``max_timeout_s``; ``ack_timeout_s`` until the first
+      sample; a time-out doubles it for that robot until the next sample (RFC 6298 5.5). Why: during a search burst an agent answers after its processing lag, not the link
+      delay; a fixed timeout below that lag re-sent every message several times (7 copies per
+      message for the column of 10), and the copies deepened the lag they were retrying.
     * A retry keeps its message id. A receiver remembers (sender, message id) of every message
       it delivered, with the answer it gave, for ``duplicate_memory_s``: a duplicate is answered
       again (the ACK or the commitment answer may have been the message that was lost) but never
@@ -61,7 +67,9 @@ class RetryPolicy:
     The defaults suit the paper's link (delay 3.85 +- 5.05 ms): the first retry after 50 ms
     (about 9 standard deviations above the mean delay of a round trip), doubling up to 1 s,
     6 retries -- 3.15 s before giving up. ``duplicate_memory_s`` (default: twice that plus 1 s)
-    must outlast every retry of a message, or a late retry would be delivered again.
+    must outlast every retry of a message, or a late retry would be delivered again; the
+    default is twice the longest give-up time (every timeout at ``max_timeout_s``, what the
+    adaptive timeout can reach) plus 1 s.
     """
 
     ack_timeout_s: float = 0.05
@@ -82,10 +90,10 @@ class RetryPolicy:
             raise ConfigError(f'retry.max_retries: must be an integer >= 0 (got {self.max_retries!r})')
         memory = self.duplicate_memory_s
         if memory is None:
-            object.__setattr__(self, 'duplicate_memory_s', 2.0 * self.give_up_after() + 1.0)
-        elif isinstance(memory, bool) or not isinstance(memory, (int, float)) or not memory >= self.give_up_after():
-            raise ConfigError(f'retry.duplicate_memory_s: must be >= the time until a sender gives up, '
-                              f'{self.give_up_after():g} s (got {memory!r})')
+            object.__setattr__(self, 'duplicate_memory_s', 2.0 * self.longest_give_up() + 1.0)
+        elif isinstance(memory, bool) or not isinstance(memory, (int, float)) or not memory >= self.longest_give_up():
+            raise ConfigError(f'retry.duplicate_memory_s: must be >= the time until a sender gives up at the '
+                              f'longest timeouts, {self.longest_give_up():g} s (got {memory!r})')
 
     @classmethod
     def from_dict(cls, data: Any, path: str = 'retry') -> 'RetryPolicy':
@@ -98,13 +106,20 @@ class RetryPolicy:
             message = str(exc)
             raise ConfigError(path + message[len('retry'):] if message.startswith('retry.') else message) from None
 
-    def timeout(self, attempt: int) -> float:
-        """How long to wait for an answer after send number ``attempt`` (0 = the first send)."""
-        return min(self.ack_timeout_s * self.backoff ** attempt, self.max_timeout_s)
+    def timeout(self, attempt: int, first: float | None = None) -> float:
+        """How long to wait for an answer after send number ``attempt`` (0 = the first send),
+        the first wait being ``first`` (default ``ack_timeout_s``; the adaptive one otherwise)."""
+        base = self.ack_timeout_s if first is None else first
+        return min(base * self.backoff ** attempt, self.max_timeout_s)
 
     def give_up_after(self) -> float:
-        """Seconds from the first send until the sender gives up on an unanswered message."""
+        """Seconds from the first send until the sender gives up on an unanswered message
+        (with the initial timeout ``ack_timeout_s``)."""
         return sum(self.timeout(attempt) for attempt in range(self.max_retries + 1))
+
+    def longest_give_up(self) -> float:
+        """The same when the adaptive timeout has reached ``max_timeout_s``."""
+        return (self.max_retries + 1) * self.max_timeout_s
 
 
 @dataclass(frozen=True)
@@ -246,6 +261,31 @@ class _Pending:
     message: ChannelMessage
     attempts: int
     deadline: float
+    sent_at: float = 0.0
+    first_timeout: float = 0.0
+
+
+class RoundTripEstimate:
+    """Smoothed round-trip time to one robot and its variation (RFC 6298, alpha 1/8, beta 1/4)."""
+
+    def __init__(self, sample: float | None = None):
+        self.smoothed = self.variation = None if sample is None else sample
+        if sample is not None:
+            self.variation = sample / 2.0
+        #: the timeout backed off by a time-out (RFC 6298 5.5), kept until the next valid sample
+        self.backed_off = 0.0
+
+    def add(self, sample: float) -> None:
+        if self.smoothed is None:
+            self.smoothed, self.variation = sample, sample / 2.0
+        else:
+            self.variation = 0.75 * self.variation + 0.25 * abs(self.smoothed - sample)
+            self.smoothed = 0.875 * self.smoothed + 0.125 * sample
+        self.backed_off = 0.0
+
+    def timeout(self) -> float:
+        measured = 0.0 if self.smoothed is None else self.smoothed + 4.0 * self.variation
+        return max(measured, self.backed_off)
 
 
 @dataclass
@@ -275,6 +315,7 @@ class ReliableChannel:
         self._pending: dict[tuple[int, str], _Pending] = {}
         self._seen: dict[tuple[str, int], _Seen] = {}
         self._answers_seen: set[tuple[str, int]] = set()
+        self._round_trips: dict[str, RoundTripEstimate] = {}
         #: (coalition id, leader) -> when its RELEASE arrived: a COMMIT_REQUEST delayed past its
         #: RELEASE must not commit this robot to a coalition its leader has given up
         self._released: dict[tuple[str, str], float] = {}
@@ -301,9 +342,23 @@ class ReliableChannel:
         copies = [message.addressed_to(robot) for robot in targets]
         for copy in copies:
             if copy.needs_ack:
-                self._pending[(copy.message_id, copy.receiver)] = _Pending(copy, 1, now + self.policy.timeout(0))
+                first = self.first_timeout(copy.receiver)
+                self._pending[(copy.message_id, copy.receiver)] = _Pending(copy, 1, now + first, now, first)
         self.stats.sent += len(copies)
         return copies
+
+    def first_timeout(self, robot: str) -> float:
+        """The wait for an answer from ``robot`` after a first send: adapted to the measured round
+        trips (see the module docstring), within [ack_timeout_s, max_timeout_s]."""
+        estimate = self._round_trips.get(robot)
+        if estimate is None:
+            return self.policy.ack_timeout_s
+        return min(max(estimate.timeout(), self.policy.ack_timeout_s), self.policy.max_timeout_s)
+
+    def round_trip(self, robot: str) -> float | None:
+        """The smoothed round-trip time to ``robot`` (None before the first answer)."""
+        estimate = self._round_trips.get(robot)
+        return None if estimate is None else estimate.smoothed
 
     def awaiting(self, message_id: int) -> tuple[str, ...]:
         """The recipients of ``message_id`` that have not answered yet."""
@@ -334,7 +389,12 @@ class ReliableChannel:
                 failed.append(Undelivered(pending.message, pending.attempts))
                 self.stats.undelivered += 1
                 continue
-            pending.deadline = now + self.policy.timeout(pending.attempts)
+            pending.deadline = now + self.policy.timeout(pending.attempts, pending.first_timeout)
+            # RFC 6298 5.5: the next first sends to this robot wait longer too, until an answer
+            # to a message sent once gives a new sample (a busy receiver is not re-flooded).
+            estimate = self._round_trips.setdefault(pending.message.receiver, RoundTripEstimate())
+            estimate.backed_off = min(max(estimate.backed_off, pending.first_timeout) * self.policy.backoff,
+                                      self.policy.max_timeout_s)
             pending.attempts += 1
             resend.append(pending.message)
         self.stats.resent += len(resend)
@@ -409,6 +469,9 @@ class ReliableChannel:
         pending = self._pending.pop((message.in_reply_to, message.sender), None)
         if pending is not None:
             self.stats.answered += 1
+            if pending.attempts == 1:  # Karn: an answer to a re-sent message is ambiguous, no sample
+                sample = max(now - pending.sent_at, 0.0)
+                self._round_trips.setdefault(message.sender, RoundTripEstimate()).add(sample)
         if message.kind is MessageKind.ACK:
             if pending is None:
                 self.stats.ignored += 1
@@ -471,5 +534,6 @@ class ReliableChannel:
 
 __all__ = [
     'ChannelStats', 'Commitment', 'CommitmentLedger', 'Negotiation', 'Received', 'ReliableChannel', 'RetryPolicy',
+    'RoundTripEstimate',
     'Undelivered',
 ]
