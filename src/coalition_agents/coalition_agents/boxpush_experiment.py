@@ -11,9 +11,10 @@ the bag (:func:`read_run`):
   the start of its search to its first coalition, the re-formings and the final states;
 * ground truth (/ground_truth/bodies): the box's and the navigating robot's final distances to
   their goals, and every trajectory (the plot);
-* the channel traffic (/coalition/channel) by message kind;
+* the channel traffic (the agents' inbox topics, batches unpacked) by message kind;
 * conflicts: a robot whose status moves from one coalition to another without being released in
-  between held two commitments (the CommitmentLedger forbids it; this checks it from outside).
+  between held two commitments (the CommitmentLedger forbids it; this checks it from outside;
+  :func:`.sim_experiments.conflicting_commitments`).
 
 ``results.json``: ``runs`` (one per loss probability) with ``coalitions``, ``robots`` (final
 state, coalition and detail per robot), ``box`` and ``navigation`` (final ground-truth distance to
@@ -32,12 +33,11 @@ import yaml
 from collab_tools.core.bag_analysis import read_messages
 from collab_tools.orchestration.experiment import load_experiment, run_experiment
 
-from .core.channel_codec import MessageKind
+from .sim_experiments import conflicting_commitments, kind_totals, read_coalition_bag
 
 EXPERIMENT = 'coalition_boxpush.yaml'
 BOX = 'box'
 GROUND_TRUTH = '/ground_truth/bodies'
-CHANNEL = '/coalition/channel'
 #: The two tasks of the scenario: leader robot -> what it does.
 BOX_TASK, NAVIGATION_TASK = 'box_pushing_to_goal', 'navigation'
 
@@ -62,49 +62,30 @@ def agent_nodes(experiment: dict) -> dict[str, dict]:
 
 def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
     """Everything the results report about one run, from its bag (see the module docstring)."""
-    robots = list(agents)
-    status_topics = {f'/{robot}/coalition': robot for robot in robots}
-    statuses: dict[str, list] = {robot: [] for robot in robots}
+    coalition_run = read_coalition_bag(bag)   # statuses and channel traffic, batches unpacked
     trajectories: dict[str, list[tuple[float, float, float]]] = {}
-    messages: dict[str, int] = {}
-    for topic, stamp, msg in read_messages(bag, [GROUND_TRUTH, CHANNEL, *status_topics]):
-        t = stamp * 1e-9
-        if topic == GROUND_TRUTH:
-            sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            for body in msg.bodies:
-                if body.name in agents or body.name == BOX:
-                    trajectories.setdefault(body.name, []).append((sim_t, body.pose.position.x, body.pose.position.y))
-        elif topic == CHANNEL:
-            try:
-                kind = MessageKind(msg.kind).text
-            except ValueError:
-                kind = f'unknown_{msg.kind}'
-            messages[kind] = messages.get(kind, 0) + 1
-        else:
-            sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            statuses[status_topics[topic]].append(
-                {'t': sim_t, 'wall': t, 'state': msg.state, 'coalition_id': msg.coalition_id, 'leader': msg.leader,
-                 'members': list(msg.members), 'cost': msg.cost, 'detail': msg.detail})
+    for _, _, msg in read_messages(bag, [GROUND_TRUTH]):
+        sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        for body in msg.bodies:
+            if body.name in agents or body.name == BOX:
+                trajectories.setdefault(body.name, []).append((sim_t, body.pose.position.x, body.pose.position.y))
+    statuses = {robot: coalition_run.of(robot) for robot in agents}
     coalitions: dict[str, dict] = {}
-    conflicts = []
     for robot, history in statuses.items():
-        held = ''
-        for entry in history:
-            cid = entry['coalition_id']
-            if cid and entry['state'] == 'committed' and cid not in coalitions and entry['leader'] == robot:
-                coalitions[cid] = {'leader': robot, 'members': entry['members'], 'cost': entry['cost'],
-                                   'established_at_s': round(entry['t'], 3)}
-            if cid and held and cid != held:
-                conflicts.append({'robot': robot, 'from': held, 'to': cid, 't': entry['t']})
-            held = cid
+        for status in history:
+            cid = status.coalition_id
+            if cid and status.state == 'committed' and status.leader == robot and cid not in coalitions:
+                coalitions[cid] = {'leader': robot, 'members': list(status.members), 'cost': status.cost,
+                                   'established_at_s': round(status.stamp, 3)}
+    conflicts = [{'robot': robot, 'coalitions': held}
+                 for robot, held in conflicting_commitments(coalition_run).items()]
     leaders = {robot: params for robot, params in agents.items() if params.get('task', 'none') != 'none'}
     time_to_form = {}
     for robot in leaders:
-        started = next((e['t'] for e in statuses[robot] if e['state'] == 'searching'), None)
-        formed = next((e['t'] for e in statuses[robot] if e['state'] == 'committed' and e['coalition_id']), None)
+        started = next((s.stamp for s in statuses[robot] if s.state == 'searching'), None)
+        formed = next((s.stamp for s in statuses[robot] if s.state == 'committed' and s.coalition_id), None)
         time_to_form[robot] = None if started is None or formed is None else round(formed - started, 3)
-    final = {robot: (history[-1] if history else {'state': 'no status', 'coalition_id': '', 'detail': ''})
-             for robot, history in statuses.items()}
+    final = {robot: history[-1] if history else None for robot, history in statuses.items()}
 
     def outcome(leader: str, body: str) -> dict:
         goal = [float(v) for v in leaders[leader]['goal_position']]
@@ -113,23 +94,26 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
             return {'leader': leader, 'goal': goal, 'final_distance_m': None, 'completed': False, 'reached': False}
         _, x, y = path[-1]
         distance = math.hypot(goal[0] - x, goal[1] - y)
+        last = final[leader]
         return {'leader': leader, 'goal': goal, 'final_position': [round(x, 3), round(y, 3)],
-                'final_distance_m': round(distance, 3), 'completed': final[leader]['state'] == 'completed',
-                'reached': distance <= goal_tolerance, 'leader_detail': final[leader]['detail']}
+                'final_distance_m': round(distance, 3), 'completed': last is not None and last.state == 'completed',
+                'reached': distance <= goal_tolerance, 'leader_detail': last.detail if last else ''}
 
     box_leader = next(r for r, p in leaders.items() if p['task'] == BOX_TASK)
     nav_leader = next(r for r, p in leaders.items() if p['task'] == NAVIGATION_TASK)
     reforms = {robot: sum(1 for a, b in zip(statuses[robot], statuses[robot][1:])
-                          if a['state'] == 'committed' and b['state'] == 'searching') for robot in leaders}
+                          if a.state == 'committed' and b.state == 'searching') for robot in leaders}
     return {
         'coalitions': coalitions,
         'time_to_form_s': time_to_form,
         'reforms': reforms,
-        'robots': {robot: {'state': entry['state'], 'coalition_id': entry['coalition_id'],
-                           'detail': entry['detail']} for robot, entry in final.items()},
+        'robots': {robot: ({'state': last.state, 'coalition_id': last.coalition_id, 'detail': last.detail}
+                           if last else {'state': 'no status', 'coalition_id': '', 'detail': ''})
+                   for robot, last in final.items()},
         'box': outcome(box_leader, BOX),
         'navigation': outcome(nav_leader, nav_leader),
-        'messages': messages,
+        'messages': kind_totals(coalition_run),
+        'ros_messages': coalition_run.ros_messages,
         'conflicts': conflicts,
         'trajectories': {name: [[round(v, 3) for v in point] for point in path[::5]]
                          for name, path in trajectories.items()},
