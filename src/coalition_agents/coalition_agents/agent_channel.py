@@ -53,7 +53,6 @@ from __future__ import annotations
 import heapq
 import itertools
 import time
-from collections import deque
 from typing import Callable, Iterable, Sequence
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -62,7 +61,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
-from .core.batching import URGENT_KINDS, Batch, Outbox, decode_batch
+from .core.batching import Batch, InboxQueue, Outbox, decode_batch
 from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
 from .core.errors import CoalitionError
 from .core.link_model import LinkModel
@@ -171,7 +170,7 @@ class AgentChannel:
                  team: Sequence[str], on_message: Callable[[ChannelMessage, Received], None],
                  on_undelivered: Callable[[Undelivered], None] | None = None,
                  policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01,
-                 ack_delay_s: float | None = None, work_slice_s: float = 0.005):
+                 ack_delay_s: float | None = None, work_slice_s: float = 0.005, drain_slice_s: float = 0.01):
         if robot not in codec.catalog.robots:
             raise CoalitionError(f"robot: {robot!r} is not in the codec's team ({', '.join(codec.robots)})")
         unknown = [name for name in team if name not in codec.catalog.robots]
@@ -195,10 +194,11 @@ class AgentChannel:
         self._delayed: list[tuple[float, int, AgentMessageBatch]] = []  # (due, order, batch): a heap
         self._order = itertools.count()
         self._flush_scheduled = False
-        #: received REQUEST / OFFER / INFORMATION messages (already acknowledged) waiting for the agent
-        self._deferred: deque[tuple[ChannelMessage, Received]] = deque()
+        #: received messages (already acknowledged) waiting for the agent, negotiation messages first
+        self._deferred: InboxQueue[Received] = InboxQueue()
         self._work_scheduled = False
         self.work_slice_s = work_slice_s
+        self.drain_slice_s = drain_slice_s
         # Deep enough for the burst of a whole search: a full KEEP_LAST queue silently replaces unread messages.
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
@@ -276,6 +276,8 @@ class AgentChannel:
     def _transmit(self, batch: Batch) -> None:
         """Apply the link model on the sending side, per batch: drop it, or publish it after the
         sampled delay."""
+        # The copies leave now (a lost batch too: the link loses it, not the sender).
+        self.core.transmitted(batch.recipient, [message.message_id for message in batch.messages], self.now())
         delivered, delay = self.link_model.sample()
         if not delivered:
             self.batches_dropped += 1
@@ -308,7 +310,31 @@ class AgentChannel:
 
     # --- receiving ---------------------------------------------------------------------------------
     def _on_batch(self, msg: AgentMessageBatch) -> None:
+        """Drain the inbox: this batch and those queued behind it in the subscription (for at
+        most ``drain_slice_s``), each decoded, acknowledged and queued for the agent; then the
+        negotiation messages of all of them go to the agent. Why: the executor hands a
+        subscription one message per wait cycle, and a cycle of ten hosted agents lasts tens of
+        milliseconds during a search burst -- taken one per cycle, the batches queued up for
+        seconds, their ACKs with them, and a COMMIT_REQUEST waited behind the whole backlog."""
         self._release_due()
+        end = time.perf_counter() + self.drain_slice_s
+        while msg is not None:
+            self._accept_batch(msg)
+            msg = self._take_queued_batch() if time.perf_counter() < end else None
+        self._deliver_urgent()
+
+    def _take_queued_batch(self) -> AgentMessageBatch | None:
+        """The next batch waiting in the inbox subscription, or None (as rclpy's executor takes
+        it: ``Subscription.handle.take_message``)."""
+        try:
+            with self.inbox.handle:
+                taken = self.inbox.handle.take_message(self.inbox.msg_type, self.inbox.raw)
+        except Exception as exc:  # noqa: BLE001 - an rclpy without this API: one batch per callback
+            self.node.get_logger().debug(f'{self.robot}: cannot drain the inbox: {exc}')
+            return None
+        return None if taken is None else taken[0]
+
+    def _accept_batch(self, msg: AgentMessageBatch) -> None:
         try:
             decoded = decode_batch(self.codec, batch_from_ros(msg), self.robot, from_ros)
         except (CoalitionError, ValueError) as exc:
@@ -322,7 +348,7 @@ class AgentChannel:
                                            f'(batch {msg.sequence}, id {msg.messages[index].message_id}): {why}')
         now = self.now()
         for message in decoded.messages:
-            self._receive(message, now)
+            self._receive(message, now, deliver_urgent=False)
 
     def _on_wire(self, msg: AgentMessage) -> None:
         """A single message on the shared topic (tools, tests)."""
@@ -337,30 +363,36 @@ class AgentChannel:
             return
         self._receive(message, self.now())
 
-    def _receive(self, message: ChannelMessage, now: float) -> None:
-        """Acknowledge / answer at once; hand negotiation messages to the agent at once, the
-        others in time slices (:meth:`_on_work`), so that the inbox never waits behind the
-        agent's reasoning: a COMMIT_REQUEST is answered while the helper is still busy with
-        requests and offers, and ACKs leave before the sender's retry timeout."""
+    def _receive(self, message: ChannelMessage, now: float, deliver_urgent: bool = True) -> None:
+        """Acknowledge / answer at once and queue the message for the agent
+        (:class:`~.core.batching.InboxQueue`): negotiation messages are handed over at the end of
+        the callback (``deliver_urgent``; a batch's all at once), the others in time slices
+        (:meth:`_on_work`), so that the inbox never waits behind the agent's reasoning: a
+        COMMIT_REQUEST is answered while the helper is still busy with requests and offers, and
+        ACKs leave at once, in the order the batches arrived (what the sender's fast retransmit
+        relies on)."""
         received = self.core.receive(message, now)
         self._queue(received.replies)
         if received.deliver is None:
             return
-        if received.deliver.kind in URGENT_KINDS:
-            self._deliver(received.deliver, received)
-            return
-        self._deferred.append((received.deliver, received))
-        if not self._work_scheduled:
+        self._deferred.put(received.deliver, received)
+        if deliver_urgent:
+            self._deliver_urgent()
+        if self._deferred and not self._work_scheduled:
             self._work_scheduled = True
             self.work_trigger.trigger()
+
+    def _deliver_urgent(self) -> None:
+        while (entry := self._deferred.pop_urgent()) is not None:
+            self._deliver(*entry)
 
     def _on_work(self) -> None:
         """Deliver deferred messages for at most ``work_slice_s`` (wall), then let the executor
         run the other callbacks (inboxes, timers) before the next slice."""
         self._work_scheduled = False
         end = time.perf_counter() + self.work_slice_s
-        while self._deferred:
-            self._deliver(*self._deferred.popleft())
+        while (entry := self._deferred.pop()) is not None:
+            self._deliver(*entry)
             if time.perf_counter() >= end:
                 break
         if self._deferred:

@@ -60,10 +60,10 @@ is completed or failed, and the robots in ``exit_after`` report theirs too) / th
 Malformed channel messages and malformed sensor reports are logged and dropped; bad parameters
 stop the node with exit code 2 and a message naming the parameter.
 
-Known limits: the bridge's fiducial measures positions, not the seen robot's orientation, so an
-answer that needs a relative heading (inverting F_R, or composing through a robot localised by a
-fiducial) cannot be computed on values; such a coalition is set up but its MS waits, and a
-helper does not stream what it cannot compute. The INFORMATION values travel in AgentMessage's
+Fiducial values carry the seen entity's relative orientation (bridge ``FiducialDetection.yaw``,
+:func:`~.core.live_sensing.fiducial_values`), so inverting F_R and composing through a robot
+localised by a fiducial are computed on values; the heading estimator of the motor schema only
+serves values that still lack a ``yaw``. The INFORMATION values travel in AgentMessage's
 ``values`` (``NamedValue[]``; see :mod:`.agent_channel`).
 """
 from __future__ import annotations
@@ -93,6 +93,7 @@ from .core.information_stream import InformationStream
 from .core.information_values import ValueUnavailable, evaluate
 from .core.motor_schema import STOP, BoxPush, GoToGoal, HeadingEstimator, MaintainRelativePosition, Velocity
 from .core.link_model import LinkModel
+from .core.live_sensing import fiducial_values
 from .core.reliable_channel import Negotiation, Received, RetryPolicy
 from .core.schemas import load_costs, load_library
 from .core.solution_space import SolutionSpaceCache
@@ -132,9 +133,15 @@ class SchemaAgentNode(Node):
                 ('search_time', 3.0, 'sim s of search before negotiating the least-cost coalition at the latest, > 0'),
                 ('settle_time', 1.0, 'sim s the cheapest executable coalition must stay the cheapest before the '
                                      'leader negotiates it (earlier than search_time), > 0'),
-                ('ack_timeout', 0.25, 'sim s before an unanswered channel message is first re-sent (doubling up to '
-                                      '2 s, 6 retries), > 0: covers the link delay and the receiving agent\'s '
-                                      'processing lag during a search burst'),
+                ('reorder_window', 0.05, 'sim s, >= 0: a channel message is re-sent once a message sent this much '
+                                         'later to the same robot was answered (fast retransmit); above the link '
+                                         "delay spread"),
+                ('tail_timeout', 1.5, 'sim s, > 0: before a round trip to a robot is measured, a message with '
+                                      'nothing later to prove it lost is re-sent after this long without any '
+                                      "answer from that robot (then the measured timeout, >= 0.2 s; doubling up to "
+                                      "8 s); above a busy agent's processing lag"),
+                ('peer_timeout', 10.0, 'sim s, > 0: a robot that answers nothing for this long while it owes '
+                                       'answers is given up (its messages undelivered)'),
                 ('hold_seconds', 0.0, 'commitment hold time sent to helpers, s; 0 = until released'),
                 ('reading_timeout', 1.0, 'sim s a sensor report stays current, > 0'),
                 ('tick_period', 0.1, 'sim s between re-evaluations, > 0'),
@@ -213,8 +220,10 @@ class SchemaAgentNode(Node):
         self.navigate = GoToGoal(max_speed=max_speed, tolerance=tolerance)
         self.push = BoxPush(standoff=standoff, lateral_offset=push_offset, tolerance=tolerance)
         link = self._link_model(p)
-        ack_timeout = self._positive(p, 'ack_timeout')
-        retry = RetryPolicy(ack_timeout_s=ack_timeout, max_timeout_s=max(2.0, ack_timeout), max_retries=6)
+        tail_timeout, peer_timeout = self._positive(p, 'tail_timeout'), self._positive(p, 'peer_timeout')
+        retry = RetryPolicy(reorder_window_s=self._number(p, 'reorder_window', 0.0, 'a number >= 0'),
+                            tail_timeout_s=tail_timeout, max_timeout_s=max(8.0, tail_timeout),
+                            peer_timeout_s=peer_timeout, message_lifetime_s=max(30.0, peer_timeout))
         try:
             cache = None
             if self.shared_solution_caches is not None:
@@ -758,8 +767,7 @@ MOTOR_SCHEMAS = ('navigate', 'push_box_cooperatively')
 def sensor_values(sensor: str, msg) -> tuple[list[str], dict]:
     """(detected names, values) of one bridge sensor report (values of information_stream)."""
     if sensor == 'fiducial':
-        return ([d.name for d in msg.detections],
-                {d.name: {'x': float(d.x), 'y': float(d.y)} for d in msg.detections})
+        return fiducial_values((d.name, d.x, d.y, d.yaw) for d in msg.detections)
     if sensor == 'gps':
         pose = msg.pose.pose
         q = pose.orientation

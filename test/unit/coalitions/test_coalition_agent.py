@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import collections
+import math
 
 import pytest
 
@@ -163,3 +164,25 @@ def test_live_sensing_ignores_unknown_detections_and_rejects_unknown_sensors(tea
         live.report('gps', 2.0)
     with pytest.raises(ConfigError, match='reading_timeout'):
         LiveSensing('robot_blind', team['robot_blind'], team, timeout_s=0.0)
+
+
+def test_fiducial_yaw_makes_an_inverted_relative_position_computable(team, library):
+    """A fiducial report carries the seen robot's relative heading (bridge FiducialDetection.yaw):
+    robot_blind sees robot_helper 2 m ahead, turned +90 deg (reported as -270 deg, wrapped), so
+    robot_blind lies 2 m to robot_helper's left -- computed by the Table I inversion, no heading
+    estimate needed."""
+    from coalition_agents.core.information import Entity, InformationInstance
+    from coalition_agents.core.information_values import relative_inverse
+    from coalition_agents.core.live_sensing import fiducial_values
+    live = LiveSensing('robot_blind', team['robot_blind'], team, library.catalog.objects, timeout_s=1.0)
+    names, values = fiducial_values([('robot_helper', 2.0, 0.0, -1.5 * math.pi)])
+    assert names == ['robot_helper'] and values['robot_helper']['yaw'] == pytest.approx(math.pi / 2)
+    live.report('fiducial', 2.0, names, values)
+    seen = InformationInstance('F_R', (Entity('robot_helper', robot=True), Entity('robot_blind', robot=True)))
+    value = live.value(seen, 2.1)
+    assert value == pytest.approx({'x': 2.0, 'y': 0.0, 'yaw': math.pi / 2})
+    inverted = relative_inverse([(seen, value)], {})
+    assert (inverted['x'], inverted['y'], inverted['yaw']) == pytest.approx((0.0, 2.0, -math.pi / 2), abs=1e-9)
+    # A non-finite yaw is rejected by the report, naming the field.
+    with pytest.raises(ValueError, match='yaw'):
+        live.report('fiducial', 2.2, *fiducial_values([('robot_helper', 2.0, 0.0, math.nan)]))

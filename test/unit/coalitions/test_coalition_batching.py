@@ -74,7 +74,7 @@ def test_negotiation_messages_are_urgent_and_processed_first(library, codec):
 
 
 def test_a_lost_batch_is_recovered_by_retrying_only_the_unacked_messages(library, codec):
-    policy = RetryPolicy(ack_timeout_s=0.1, backoff=2.0, max_timeout_s=1.0, max_retries=5)
+    policy = RetryPolicy(tail_timeout_s=0.1, backoff=2.0, max_timeout_s=1.0)
     sender, receiver = ReliableChannel('robot_1', policy), ReliableChannel('robot_2', policy)
     out_1, out_2 = Outbox('robot_1', 0.0), Outbox('robot_2', 0.0)
     first = sender.send(request(library, 'robot_1', 'F_G(X)', sender.new_id()), 0.0, ['robot_2'])
@@ -149,10 +149,10 @@ def test_outbox_validation(library):
         outbox.put(request(library, 'robot_1', 'F_G(X)', 1), 0.0)
 
 
-def test_retry_timeout_adapts_to_the_measured_round_trip_and_backs_off(library):
-    policy = RetryPolicy(ack_timeout_s=0.05, backoff=2.0, max_timeout_s=2.0, max_retries=6)
+def test_tail_timeout_adapts_to_the_measured_round_trip_and_backs_off(library):
+    policy = RetryPolicy(tail_timeout_s=0.05, min_timeout_s=0.05, backoff=2.0, max_timeout_s=2.0)
     sender = ReliableChannel('robot_1', policy)
-    assert sender.first_timeout('robot_2') == 0.05 and sender.round_trip('robot_2') is None
+    assert sender.tail_timeout('robot_2') == 0.05 and sender.round_trip('robot_2') is None
 
     def send(t):
         [copy] = sender.send(request(library, 'robot_1', 'F_G(X)', sender.new_id()), t, ['robot_2'])
@@ -163,15 +163,16 @@ def test_retry_timeout_adapts_to_the_measured_round_trip_and_backs_off(library):
 
     answer(send(0.0), 0.03)                                   # RTT sample 0.03 s
     assert sender.round_trip('robot_2') == pytest.approx(0.03)
-    assert sender.first_timeout('robot_2') == pytest.approx(0.09)   # SRTT + 4 RTTVAR (RFC 6298)
+    assert sender.tail_timeout('robot_2') == pytest.approx(0.09)    # SRTT + 4 RTTVAR (RFC 6298)
     late = send(1.0)
     assert sender.poll(1.089) == ([], []) and sender.poll(1.09)[0] == [late]
-    assert sender.first_timeout('robot_2') == pytest.approx(0.18)   # backed off after the time-out
+    assert sender.tail_timeout('robot_2') == pytest.approx(0.18)    # backed off after the expiry
     answer(late, 1.3)
     assert sender.round_trip('robot_2') == pytest.approx(0.03)      # Karn: no sample from a re-sent message
+    assert sender.tail_timeout('robot_2') == pytest.approx(0.09)    # an answer ends the back-off
     busy = send(2.0)
-    assert sender.poll(2.17) == ([], [])                     # waits the backed-off 0.18 s
-    answer(busy, 2.15)                                        # a fresh sample replaces the back-off
+    answer(busy, 2.15)
     assert sender.round_trip('robot_2') == pytest.approx(0.875 * 0.03 + 0.125 * 0.15)
-    assert sender.first_timeout('robot_2') == pytest.approx(0.045 + 4 * (0.75 * 0.015 + 0.25 * 0.12))
-    assert sender.first_timeout('robot_3') == 0.05          # per robot
+    assert sender.tail_timeout('robot_2') == pytest.approx(0.045 + 4 * (0.75 * 0.015 + 0.25 * 0.12))
+    assert sender.tail_timeout('robot_3') == 0.05             # per robot
+    assert sender.stats.tail_resent == 1 and sender.stats.fast_resent == 0

@@ -274,23 +274,29 @@ def test_malformed_ros_information_messages_are_rejected_naming_the_field(codec,
 # --- reliable channel: single steps --------------------------------------------------------------
 
 def test_retry_policy_backoff_and_validation():
-    policy = RetryPolicy(ack_timeout_s=0.05, backoff=2.0, max_timeout_s=0.3, max_retries=4)
-    assert [policy.timeout(k) for k in range(5)] == pytest.approx([0.05, 0.1, 0.2, 0.3, 0.3])
-    assert policy.give_up_after() == pytest.approx(0.95)
-    assert policy.longest_give_up() == pytest.approx(1.5)  # every timeout at max_timeout_s (adaptive)
-    assert policy.duplicate_memory_s == pytest.approx(4.0)
-    for data, message in [({'ack_timeout_s': 0}, 'retry.ack_timeout_s: must be a number > 0'),
+    policy = RetryPolicy(tail_timeout_s=0.05, min_timeout_s=0.01, backoff=2.0, max_timeout_s=0.3,
+                         peer_timeout_s=2.0, message_lifetime_s=3.0)
+    assert [policy.tail_timeout(0.0, k) for k in range(5)] == pytest.approx([0.05, 0.1, 0.2, 0.3, 0.3])
+    assert policy.tail_timeout(0.12, 1) == pytest.approx(0.24)   # the measured round trip, once there is one
+    assert policy.tail_timeout(0.001, 0) == pytest.approx(0.01)  # at least min_timeout_s
+    assert policy.duplicate_memory_s == pytest.approx(4.0)       # the lifetime + 1 s in flight
+    assert RetryPolicy().reorder_window_s == 0.05
+    for data, message in [({'tail_timeout_s': 0}, 'retry.tail_timeout_s: must be a number > 0'),
+                          ({'reorder_window_s': -0.1}, 'retry.reorder_window_s: must be a number >= 0'),
                           ({'backoff': 0.5}, 'retry.backoff: must be a number >= 1'),
-                          ({'max_retries': -1}, 'retry.max_retries: must be an integer >= 0'),
-                          ({'max_timeout_s': 0.01}, 'retry.max_timeout_s: must be a number >= ack_timeout_s'),
-                          ({'duplicate_memory_s': 1.0}, 'retry.duplicate_memory_s: must be >= the time'),
+                          ({'peer_timeout_s': 0}, 'retry.peer_timeout_s: must be a number > 0'),
+                          ({'min_timeout_s': -1}, 'retry.min_timeout_s: must be a number > 0'),
+                          ({'max_timeout_s': 0.01}, 'retry.max_timeout_s: must be a number >= tail_timeout_s'),
+                          ({'message_lifetime_s': 1.0}, 'retry.message_lifetime_s: must be a number >= peer_timeout_s'),
+                          ({'duplicate_memory_s': 1.0}, 'retry.duplicate_memory_s: must be >= message_lifetime_s'),
                           ({'retries': 3}, 'retry.retries: unknown field')]:
         with pytest.raises(ConfigError, match=message):
             RetryPolicy.from_dict(data)
 
 
 def test_request_is_retried_with_backoff_until_acked_and_duplicates_delivered_once(library):
-    policy = RetryPolicy(ack_timeout_s=0.1, backoff=2.0, max_timeout_s=1.0, max_retries=5)
+    """A lone message (a tail loss: nothing later to prove it lost) falls back to the backed-off timeout."""
+    policy = RetryPolicy(tail_timeout_s=0.1, backoff=2.0, max_timeout_s=1.0)
     sender, receiver = ReliableChannel('robot_1', policy), ReliableChannel('robot_2', policy)
     request = request_message(InformationRequest('robot_1', label(library, 'F_G(X)')), sender.new_id())
     [copy] = sender.send(request, 0.0, ['robot_2'])
@@ -310,8 +316,8 @@ def test_request_is_retried_with_backoff_until_acked_and_duplicates_delivered_on
     assert sender.stats.answered == 1 and sender.stats.resent == 2
 
 
-def test_unanswered_message_is_given_up_after_max_retries(library):
-    policy = RetryPolicy(ack_timeout_s=0.1, backoff=1.0, max_timeout_s=0.1, max_retries=2)
+def test_silent_peers_are_given_up_after_peer_timeout(library):
+    policy = RetryPolicy(tail_timeout_s=0.1, min_timeout_s=0.1, backoff=1.0, max_timeout_s=0.1, peer_timeout_s=0.25)
     sender = ReliableChannel('robot_1', policy)
     request = request_message(InformationRequest('robot_1', label(library, 'F_G(X)')), sender.new_id())
     sender.send(request, 0.0, ['robot_2', 'robot_3'])
@@ -321,7 +327,7 @@ def test_unanswered_message_is_given_up_after_max_retries(library):
         resend, gave_up = sender.poll(step * 0.1 + 1e-9)
         sends += len(resend)
         failed += gave_up
-    assert sends == 6                                 # 1 + 2 retries per recipient
+    assert sends == 6                                 # sent at 0, re-sent at 0.1 and 0.2, given up at 0.25
     assert sorted(f.receiver for f in failed) == ['robot_2', 'robot_3'] and {f.attempts for f in failed} == {3}
     assert sender.stats.undelivered == 2
 
@@ -449,7 +455,7 @@ class Network:
 
 @pytest.mark.parametrize('loss', [0.2, 0.5])
 def test_every_request_answered_exactly_once_under_loss(library, codec, loss):
-    policy = RetryPolicy(ack_timeout_s=0.05, backoff=1.5, max_timeout_s=0.2, max_retries=40)
+    policy = RetryPolicy(tail_timeout_s=0.05, backoff=1.5, max_timeout_s=0.2, peer_timeout_s=20.0)
     net = Network(codec, loss, seed=int(loss * 10), policy=policy)
     labels = [label(library, text) for text in ('F_G(X)', 'F_R(X, goal)', 'F_A(X)')]
     sent_requests = []
@@ -488,7 +494,7 @@ def test_coalitions_form_under_loss_without_conflicting_commitments(codec, loss,
     """Three leaders compete for overlapping helpers (request-and-wait, retries with a random
     back-off after a failure, each coalition 'executes' 0.3 s and is released): every leader gets
     its coalition and at no time does a robot belong to two established coalitions."""
-    policy = RetryPolicy(ack_timeout_s=0.03, backoff=2.0, max_timeout_s=0.2, max_retries=5)
+    policy = RetryPolicy(tail_timeout_s=0.03, backoff=2.0, max_timeout_s=0.2, peer_timeout_s=1.0)
     net = Network(codec, loss, seed=seed, policy=policy)
     rng = np.random.default_rng(seed)
     wants = {'robot_1': ('robot_1', 'robot_4', 'robot_5'),

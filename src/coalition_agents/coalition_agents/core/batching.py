@@ -22,6 +22,11 @@ reliable channel (:mod:`.reliable_channel`: ids, retries, exactly-once, commitme
   first, then the messages in :func:`processing_order`. A malformed batch header raises
   :class:`~.errors.RequestError` naming the field; a malformed message inside a batch is reported
   in :attr:`DecodedBatch.rejected` and the others are still delivered.
+* :class:`InboxQueue`: what the receiver's reliable channel delivers waits here for the agent,
+  negotiation messages before requests, offers and streamed values. The transport's callback
+  only decodes a batch, acknowledges its messages and queues them; the agent takes from this
+  queue, so the COMMIT/RELEASE messages of every batch received so far are handled before the
+  search traffic queued ahead of them, and a negotiation never waits behind a search burst.
 
 The link model applies per batch (the ROS adapter samples one delay and one loss per batch): a
 lost batch loses all its messages and acks, and the reliable channel's retries re-send the
@@ -31,8 +36,9 @@ message.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Generic, Mapping, Sequence, TypeVar
 
 from .channel_codec import MAX_MESSAGE_ID, ChannelCodec, ChannelMessage, MessageKind
 from .errors import ConfigError, RequestError
@@ -150,6 +156,39 @@ class Outbox:
         return batches
 
 
+Item = TypeVar('Item')
+
+
+class InboxQueue(Generic[Item]):
+    """Received messages waiting for the agent, each with what the caller keeps beside it
+    (e.g. the :class:`~.reliable_channel.Received`): :data:`URGENT_KINDS` first, then the rest,
+    each group in arrival order."""
+
+    def __init__(self) -> None:
+        self._urgent: deque[tuple[ChannelMessage, Item]] = deque()
+        self._other: deque[tuple[ChannelMessage, Item]] = deque()
+
+    def put(self, message: ChannelMessage, item: Item) -> None:
+        (self._urgent if message.kind in URGENT_KINDS else self._other).append((message, item))
+
+    def pop(self) -> tuple[ChannelMessage, Item] | None:
+        """The next message for the agent (None: empty)."""
+        if self._urgent:
+            return self._urgent.popleft()
+        return self._other.popleft() if self._other else None
+
+    def pop_urgent(self) -> tuple[ChannelMessage, Item] | None:
+        """The next negotiation message (None: none waiting)."""
+        return self._urgent.popleft() if self._urgent else None
+
+    def __len__(self) -> int:
+        return len(self._urgent) + len(self._other)
+
+    def clear(self) -> None:
+        self._urgent.clear()
+        self._other.clear()
+
+
 @dataclass
 class DecodedBatch:
     """A received batch: ``messages`` to hand to the reliable channel in this order (the
@@ -204,5 +243,5 @@ def decode_batch(codec: ChannelCodec, data: Any, robot: str,
     return decoded
 
 
-__all__ = ['Batch', 'DecodedBatch', 'Outbox', 'OutboxStats', 'URGENT_KINDS', 'decode_batch', 'piggybacked_ack',
+__all__ = ['Batch', 'DecodedBatch', 'InboxQueue', 'Outbox', 'OutboxStats', 'URGENT_KINDS', 'decode_batch', 'piggybacked_ack',
            'processing_order']

@@ -14,10 +14,15 @@ stops providing F_R for it).
 
 A report may also carry the readings' values (``values``: per detected name for a one-variable
 sensor, one value otherwise; the planar values of :mod:`.information_stream`): what a coalition
-streams and its motor schema uses while it executes (:meth:`LiveSensing.value`).
+streams and its motor schema uses while it executes (:meth:`LiveSensing.value`). A fiducial
+marker gives the seen entity's orientation as well as its position (the bridge's
+``FiducialDetection.yaw``): :func:`fiducial_values` keeps it as the F_R value's ``yaw``, so the
+RPSs that need a relative heading (inverting F_R, composing F_R, F_G through a fiducial) are
+computed from it rather than from a heading estimate.
 """
 from __future__ import annotations
 
+import math
 from typing import Iterable, Mapping
 
 from .capabilities import RobotCapabilities
@@ -25,6 +30,21 @@ from .errors import ConfigError
 from .information import Entity, InformationInstance
 from .information_stream import check_value
 from .requests import to_absolute
+
+
+def fiducial_values(detections: Iterable[tuple[str, float, float, float]],
+                    ) -> tuple[list[str], dict[str, dict[str, float]]]:
+    """(detected names, F_R value per name) of one fiducial report given as (name, x, y, yaw):
+    the seen entity's position in the sensing robot's frame and its heading relative to the
+    sensing robot's (rad, wrapped to (-pi, pi]). A non-finite number is kept and rejected by
+    :meth:`LiveSensing.report`, naming the field."""
+    names, values = [], {}
+    for name, x, y, yaw in detections:
+        names.append(name)
+        yaw = float(yaw)
+        values[name] = {'x': float(x), 'y': float(y),
+                        'yaw': math.atan2(math.sin(yaw), math.cos(yaw)) if math.isfinite(yaw) else yaw}
+    return names, values
 
 
 class LiveSensing:
@@ -108,4 +128,4 @@ class LiveSensing:
 
 
 
-__all__ = ['LiveSensing']
+__all__ = ['LiveSensing', 'fiducial_values']

@@ -7,23 +7,40 @@ an agent that makes both true, independent of the transport: every call takes th
 time ``now`` (seconds, any clock -- sim time in the node, a fake clock in tests) and returns the
 messages to put on the wire; nothing here sleeps, spawns timers or draws random numbers.
 
-Delivery (:class:`ReliableChannel`)
+Delivery (:class:`ReliableChannel`; TCP's fast retransmit and selective repeat, per peer)
     * A message of a kind in :data:`~.channel_codec.ACKNOWLEDGED_KINDS` is sent as one copy per
       recipient (a broadcast REQUEST goes to every teammate; each link may lose its copy) and
       each copy is kept until that recipient answers -- with an ACK, or for a COMMIT_REQUEST with
-      COMMIT_ACCEPT / COMMIT_REJECT. Without an answer the copy is re-sent after
-      ``ack_timeout_s * backoff^k`` (capped at ``max_timeout_s``); after ``max_retries`` re-sends it
-      is reported :class:`Undelivered`.
-    * The first timeout towards a robot adapts to the measured round trip (RFC 6298: smoothed
-      round-trip time plus four times its variation, from answers to messages sent once -- Karn's
-      rule), between ``ack_timeout_s`` and ``max_timeout_s``; ``ack_timeout_s`` until the first
-      sample; a time-out doubles it for that robot until the next sample (RFC 6298 5.5). Why: during a search burst an agent answers after its processing lag, not the link
-      delay; a fixed timeout below that lag re-sent every message several times (7 copies per
-      message for the column of 10), and the copies deepened the lag they were retrying.
+      COMMIT_ACCEPT / COMMIT_REJECT.
+    * A copy is re-sent only when it is *known lost* (fast retransmit): an answer has arrived
+      from the same peer for a copy transmitted at least ``reorder_window_s`` after this copy's
+      last transmission, and the copy is still unanswered ``reorder_window_s`` after that answer
+      arrived. A receiver handles its inbox in order, so a later copy's answer means this one
+      was not merely queued; the two windows absorb the link's reordering on the way there and
+      back (the paper's delay N(3.85 ms, 5.05 ms) spreads batches by ~25 ms at most; default
+      50 ms). A receiver that is merely busy (its answers come late but in order) is never sent
+      a copy again. Why: re-sending after a timeout shorter than a busy agent's processing lag
+      sent every message of the column of 10 about seven times; the copies deepened the lag they
+      were retrying.
+    * Tail losses (nothing later was sent to, or answered by, that peer) fall back to a timeout
+      per peer (RFC 6298): ``tail_timeout_s`` until a round trip has been measured, then the
+      measured one (smoothed RTT + 4 x its variation, Karn's rule: only answers to copies sent
+      once; at least ``min_timeout_s``) -- a busy receiver's answers come late, so its round
+      trips include its processing lag -- restarted by every answer from the peer (a peer whose answers arrive is alive and working through
+      its inbox), doubled at each expiry up to ``max_timeout_s`` and reset by the next answer.
+      At expiry the copies to that peer unanswered for the timeout are re-sent.
+    * A peer is given up -- every copy still waiting for it is reported :class:`Undelivered` --
+      only when it has answered nothing at all for ``peer_timeout_s`` while it owed an answer.
+      Retries are not counted against a peer whose answers keep arriving.
     * A retry keeps its message id. A receiver remembers (sender, message id) of every message
       it delivered, with the answer it gave, for ``duplicate_memory_s``: a duplicate is answered
       again (the ACK or the commitment answer may have been the message that was lost) but never
-      delivered to the agent twice -- so a retried request is served exactly once.
+      delivered to the agent twice -- so a retried request is served exactly once. So that no
+      retry outlives that memory, a copy is given up ``message_lifetime_s`` after its first
+      send instead of being re-sent again.
+    * The transport may batch copies (:mod:`.batching`): :meth:`ReliableChannel.transmitted`
+      stamps the copies of a batch with the time the batch actually left, which is what the
+      reordering rule compares.
 
 Commitments (:class:`CommitmentLedger`, :class:`Negotiation`; the paper sets coalitions up
 "using the same request-and-wait negotiation protocol as used in the distributed version of
@@ -62,43 +79,54 @@ NEVER = math.inf
 
 @dataclass(frozen=True)
 class RetryPolicy:
-    """When an unanswered message is re-sent and when the sender gives up.
+    """When an unanswered message is re-sent and when the sender gives up (module docstring).
 
-    The defaults suit the paper's link (delay 3.85 +- 5.05 ms): the first retry after 50 ms
-    (about 9 standard deviations above the mean delay of a round trip), doubling up to 1 s,
-    6 retries -- 3.15 s before giving up. ``duplicate_memory_s`` (default: twice that plus 1 s)
-    must outlast every retry of a message, or a late retry would be delivered again; the
-    default is twice the longest give-up time (every timeout at ``max_timeout_s``, what the
-    adaptive timeout can reach) plus 1 s.
+    Defaults: ``reorder_window_s`` 50 ms, well above the paper's delay spread (3.85 +- 5.05 ms:
+    two batches overtake each other by ~25 ms at most); ``tail_timeout_s`` 1.5 s before the
+    first round trip is measured (above the ~1 s processing lag of a busy agent in the column
+    of 10, so that only a loss makes it expire), then the measured timeout, at least
+    ``min_timeout_s`` 0.2 s; doubling up to ``max_timeout_s`` 8 s; ``peer_timeout_s`` 10 s of
+    silence before a peer is given up; ``message_lifetime_s`` 30 s; ``duplicate_memory_s``
+    (default: the lifetime plus 1 s for the last retry in flight) must outlast every retry of
+    a message, or a late retry would be delivered again.
     """
 
-    ack_timeout_s: float = 0.05
+    reorder_window_s: float = 0.05
+    tail_timeout_s: float = 1.5
+    min_timeout_s: float = 0.2
     backoff: float = 2.0
-    max_timeout_s: float = 1.0
-    max_retries: int = 6
+    max_timeout_s: float = 8.0
+    peer_timeout_s: float = 10.0
+    message_lifetime_s: float = 30.0
     duplicate_memory_s: float | None = None
 
+    FIELDS = ('reorder_window_s', 'tail_timeout_s', 'min_timeout_s', 'backoff', 'max_timeout_s', 'peer_timeout_s',
+              'message_lifetime_s', 'duplicate_memory_s')
+
     def __post_init__(self) -> None:
-        checks = (('ack_timeout_s', self.ack_timeout_s, 'a number > 0', lambda v: v > 0),
+        checks = (('reorder_window_s', self.reorder_window_s, 'a number >= 0', lambda v: v >= 0),
+                  ('tail_timeout_s', self.tail_timeout_s, 'a number > 0', lambda v: v > 0),
+                  ('min_timeout_s', self.min_timeout_s, 'a number > 0', lambda v: v > 0),
                   ('backoff', self.backoff, 'a number >= 1', lambda v: v >= 1),
-                  ('max_timeout_s', self.max_timeout_s, f'a number >= ack_timeout_s = {self.ack_timeout_s!r}',
-                   lambda v: v >= self.ack_timeout_s))
+                  ('max_timeout_s', self.max_timeout_s,
+                   f'a number >= tail_timeout_s = {self.tail_timeout_s!r} and >= min_timeout_s = {self.min_timeout_s!r}',
+                   lambda v: v >= max(self.tail_timeout_s, self.min_timeout_s)),
+                  ('peer_timeout_s', self.peer_timeout_s, 'a number > 0', lambda v: v > 0),
+                  ('message_lifetime_s', self.message_lifetime_s,
+                   f'a number >= peer_timeout_s = {self.peer_timeout_s!r}', lambda v: v >= self.peer_timeout_s))
         for name, value, allowed, ok in checks:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not ok(value):
                 raise ConfigError(f'retry.{name}: must be {allowed} (got {value!r})')
-        if isinstance(self.max_retries, bool) or not isinstance(self.max_retries, int) or self.max_retries < 0:
-            raise ConfigError(f'retry.max_retries: must be an integer >= 0 (got {self.max_retries!r})')
         memory = self.duplicate_memory_s
         if memory is None:
-            object.__setattr__(self, 'duplicate_memory_s', 2.0 * self.longest_give_up() + 1.0)
-        elif isinstance(memory, bool) or not isinstance(memory, (int, float)) or not memory >= self.longest_give_up():
-            raise ConfigError(f'retry.duplicate_memory_s: must be >= the time until a sender gives up at the '
-                              f'longest timeouts, {self.longest_give_up():g} s (got {memory!r})')
+            object.__setattr__(self, 'duplicate_memory_s', self.message_lifetime_s + 1.0)
+        elif isinstance(memory, bool) or not isinstance(memory, (int, float)) or not memory >= self.message_lifetime_s:
+            raise ConfigError(f'retry.duplicate_memory_s: must be >= message_lifetime_s = '
+                              f'{self.message_lifetime_s:g} s, the longest a message is retried (got {memory!r})')
 
     @classmethod
     def from_dict(cls, data: Any, path: str = 'retry') -> 'RetryPolicy':
-        section = Section(data, path, ('ack_timeout_s', 'backoff', 'max_timeout_s', 'max_retries',
-                                       'duplicate_memory_s'))
+        section = Section(data, path, cls.FIELDS)
         values = {key: section.get(key) for key in section.allowed if key in section.data}
         try:
             return cls(**values)
@@ -106,20 +134,11 @@ class RetryPolicy:
             message = str(exc)
             raise ConfigError(path + message[len('retry'):] if message.startswith('retry.') else message) from None
 
-    def timeout(self, attempt: int, first: float | None = None) -> float:
-        """How long to wait for an answer after send number ``attempt`` (0 = the first send),
-        the first wait being ``first`` (default ``ack_timeout_s``; the adaptive one otherwise)."""
-        base = self.ack_timeout_s if first is None else first
-        return min(base * self.backoff ** attempt, self.max_timeout_s)
-
-    def give_up_after(self) -> float:
-        """Seconds from the first send until the sender gives up on an unanswered message
-        (with the initial timeout ``ack_timeout_s``)."""
-        return sum(self.timeout(attempt) for attempt in range(self.max_retries + 1))
-
-    def longest_give_up(self) -> float:
-        """The same when the adaptive timeout has reached ``max_timeout_s``."""
-        return (self.max_retries + 1) * self.max_timeout_s
+    def tail_timeout(self, measured: float, expiries: int) -> float:
+        """The tail-loss timeout after ``expiries`` expiries without an answer, the measured
+        round-trip timeout being ``measured`` (0: no sample yet)."""
+        base = self.tail_timeout_s if measured <= 0 else max(self.min_timeout_s, measured)
+        return min(base * self.backoff ** expiries, self.max_timeout_s)
 
 
 @dataclass(frozen=True)
@@ -151,7 +170,9 @@ class ChannelStats:
     """Counters for experiments (AgentStatus)."""
 
     sent: int = 0           # message copies handed to the transport (first sends)
-    resent: int = 0         # retries
+    resent: int = 0         # retries (fast_resent + tail_resent)
+    fast_resent: int = 0    # retries of copies known lost (a later copy to the same peer was answered)
+    tail_resent: int = 0    # retries after the tail-loss timeout
     replies: int = 0        # ACKs and commitment answers sent
     answered: int = 0       # copies whose answer arrived
     undelivered: int = 0    # copies given up
@@ -259,21 +280,22 @@ class Negotiation:
 @dataclass
 class _Pending:
     message: ChannelMessage
-    attempts: int
-    deadline: float
-    sent_at: float = 0.0
-    first_timeout: float = 0.0
+    first_sent: float
+    last_sent: float
+    #: when the first copy actually left (batches: :meth:`ReliableChannel.transmitted`); what an
+    #: answer to it proves about copies sent before
+    first_transmitted: float
+    sends: int = 1
+    #: when an answer proved this copy lost (fast retransmit after ``reorder_window_s`` more)
+    lost_at: float | None = None
 
 
 class RoundTripEstimate:
     """Smoothed round-trip time to one robot and its variation (RFC 6298, alpha 1/8, beta 1/4)."""
 
-    def __init__(self, sample: float | None = None):
-        self.smoothed = self.variation = None if sample is None else sample
-        if sample is not None:
-            self.variation = sample / 2.0
-        #: the timeout backed off by a time-out (RFC 6298 5.5), kept until the next valid sample
-        self.backed_off = 0.0
+    def __init__(self) -> None:
+        self.smoothed: float | None = None
+        self.variation: float | None = None
 
     def add(self, sample: float) -> None:
         if self.smoothed is None:
@@ -281,11 +303,44 @@ class RoundTripEstimate:
         else:
             self.variation = 0.75 * self.variation + 0.25 * abs(self.smoothed - sample)
             self.smoothed = 0.875 * self.smoothed + 0.125 * sample
-        self.backed_off = 0.0
 
     def timeout(self) -> float:
-        measured = 0.0 if self.smoothed is None else self.smoothed + 4.0 * self.variation
-        return max(measured, self.backed_off)
+        """SRTT + 4 RTTVAR (0 before the first sample)."""
+        return 0.0 if self.smoothed is None else self.smoothed + 4.0 * self.variation
+
+
+class _Peer:
+    """What a sender knows about one recipient: its unanswered copies (ordered by their last
+    transmission), when it last answered, since when it owes an answer, the round trip and the
+    tail-timeout back-off."""
+
+    def __init__(self) -> None:
+        self.pending: dict[int, _Pending] = {}
+        self.suspects: set[int] = set()
+        self.last_answer_at = -NEVER
+        self.owing_since: float | None = None
+        self.round_trip = RoundTripEstimate()
+        self.expiries = 0
+
+    def add(self, pending: _Pending, now: float) -> None:
+        if not self.pending:
+            self.owing_since = now
+        self.pending[pending.message.message_id] = pending
+
+    def remove(self, message_id: int) -> _Pending | None:
+        pending = self.pending.pop(message_id, None)
+        self.suspects.discard(message_id)
+        if not self.pending:
+            self.owing_since = None
+        return pending
+
+    def touch(self, pending: _Pending) -> None:
+        """Move ``pending`` behind the others (it was just transmitted)."""
+        self.pending[pending.message.message_id] = self.pending.pop(pending.message.message_id)
+
+    def silent_since(self) -> float:
+        """Since when the peer has owed an answer and given none."""
+        return max(self.last_answer_at, self.owing_since if self.owing_since is not None else NEVER)
 
 
 @dataclass
@@ -312,16 +367,21 @@ class ReliableChannel:
         self.stats = ChannelStats()
         self.negotiations: dict[str, Negotiation] = {}
         self._ids = itertools.count(first_message_id)
-        self._pending: dict[tuple[int, str], _Pending] = {}
+        self._peers: dict[str, _Peer] = {}
         self._seen: dict[tuple[str, int], _Seen] = {}
         self._answers_seen: set[tuple[str, int]] = set()
-        self._round_trips: dict[str, RoundTripEstimate] = {}
         #: (coalition id, leader) -> when its RELEASE arrived: a COMMIT_REQUEST delayed past its
         #: RELEASE must not commit this robot to a coalition its leader has given up
         self._released: dict[tuple[str, str], float] = {}
 
     def new_id(self) -> int:
         return next(self._ids)
+
+    def _peer(self, robot: str) -> _Peer:
+        peer = self._peers.get(robot)
+        if peer is None:
+            peer = self._peers[robot] = _Peer()
+        return peer
 
     # --- sending ---------------------------------------------------------------------------
     def send(self, message: ChannelMessage, now: float, recipients: Iterable[str] | None = None) -> list[ChannelMessage]:
@@ -342,70 +402,117 @@ class ReliableChannel:
         copies = [message.addressed_to(robot) for robot in targets]
         for copy in copies:
             if copy.needs_ack:
-                first = self.first_timeout(copy.receiver)
-                self._pending[(copy.message_id, copy.receiver)] = _Pending(copy, 1, now + first, now, first)
+                self._peer(copy.receiver).add(_Pending(copy, now, now, now), now)
         self.stats.sent += len(copies)
         return copies
 
-    def first_timeout(self, robot: str) -> float:
-        """The wait for an answer from ``robot`` after a first send: adapted to the measured round
-        trips (see the module docstring), within [ack_timeout_s, max_timeout_s]."""
-        estimate = self._round_trips.get(robot)
-        if estimate is None:
-            return self.policy.ack_timeout_s
-        return min(max(estimate.timeout(), self.policy.ack_timeout_s), self.policy.max_timeout_s)
+    def transmitted(self, receiver: str, message_ids: Iterable[int], now: float) -> None:
+        """The transport put these copies to ``receiver`` on the wire at ``now`` (one batch): the
+        reordering rule compares transmission times, not the times the agent queued them."""
+        peer = self._peers.get(receiver)
+        if peer is None:
+            return
+        for message_id in message_ids:
+            pending = peer.pending.get(message_id)
+            if pending is None or pending.last_sent >= now:
+                continue
+            if pending.sends == 1:
+                pending.first_transmitted = now
+            pending.last_sent = now
+            peer.touch(pending)
+
+    def tail_timeout(self, robot: str) -> float:
+        """The current tail-loss timeout towards ``robot`` (module docstring)."""
+        peer = self._peers.get(robot)
+        if peer is None:
+            return self.policy.tail_timeout(0.0, 0)
+        return self.policy.tail_timeout(peer.round_trip.timeout(), peer.expiries)
 
     def round_trip(self, robot: str) -> float | None:
-        """The smoothed round-trip time to ``robot`` (None before the first answer)."""
-        estimate = self._round_trips.get(robot)
-        return None if estimate is None else estimate.smoothed
+        """The smoothed round-trip time to ``robot`` (None before the first sample)."""
+        peer = self._peers.get(robot)
+        return None if peer is None else peer.round_trip.smoothed
 
     def awaiting(self, message_id: int) -> tuple[str, ...]:
         """The recipients of ``message_id`` that have not answered yet."""
-        return tuple(receiver for (mid, receiver) in self._pending if mid == message_id)
+        return tuple(robot for robot, peer in self._peers.items() if message_id in peer.pending)
 
     def cancel(self, message_id: int) -> int:
         """Stop retrying ``message_id`` (e.g. a request whose search time is over); copies dropped."""
-        keys = [key for key in self._pending if key[0] == message_id]
-        for key in keys:
-            del self._pending[key]
-        return len(keys)
+        return sum(peer.remove(message_id) is not None for peer in self._peers.values())
+
+    def _tail_deadline(self, peer: _Peer) -> float:
+        if not peer.pending:
+            return NEVER
+        oldest = next(iter(peer.pending.values())).last_sent
+        return max(oldest, peer.last_answer_at) + self.policy.tail_timeout(peer.round_trip.timeout(), peer.expiries)
 
     def next_deadline(self) -> float:
         """When :meth:`poll` has something to do next (inf: nothing pending)."""
-        deadlines = [pending.deadline for pending in self._pending.values()]
-        return min(deadlines, default=NEVER)
+        deadlines = [NEVER]
+        for peer in self._peers.values():
+            if not peer.pending:
+                continue
+            deadlines.append(self._tail_deadline(peer))
+            deadlines.append(peer.silent_since() + self.policy.peer_timeout_s)
+            deadlines.extend(peer.pending[mid].lost_at + self.policy.reorder_window_s for mid in peer.suspects)
+        return min(deadlines)
 
     def poll(self, now: float) -> tuple[list[ChannelMessage], list[Undelivered]]:
         """(copies to re-send now, copies given up). Failed commit requests fail their
         negotiation (:meth:`release` then frees the helpers)."""
         resend: list[ChannelMessage] = []
         failed: list[Undelivered] = []
-        for key, pending in list(self._pending.items()):
-            if now < pending.deadline:
+        policy = self.policy
+        for robot, peer in self._peers.items():
+            if not peer.pending:
                 continue
-            if pending.attempts > self.policy.max_retries:
-                del self._pending[key]
-                failed.append(Undelivered(pending.message, pending.attempts))
-                self.stats.undelivered += 1
+            if now - peer.silent_since() >= policy.peer_timeout_s:
+                # Silent for peer_timeout while it owed answers: the peer is gone.
+                for message_id in list(peer.pending):
+                    pending = peer.remove(message_id)
+                    failed.append(Undelivered(pending.message, pending.sends))
                 continue
-            pending.deadline = now + self.policy.timeout(pending.attempts, pending.first_timeout)
-            # RFC 6298 5.5: the next first sends to this robot wait longer too, until an answer
-            # to a message sent once gives a new sample (a busy receiver is not re-flooded).
-            estimate = self._round_trips.setdefault(pending.message.receiver, RoundTripEstimate())
-            estimate.backed_off = min(max(estimate.backed_off, pending.first_timeout) * self.policy.backoff,
-                                      self.policy.max_timeout_s)
-            pending.attempts += 1
-            resend.append(pending.message)
+            due: list[_Pending] = []
+            for message_id in list(peer.suspects):
+                pending = peer.pending[message_id]
+                if now >= pending.lost_at + policy.reorder_window_s:
+                    due.append(pending)
+            self.stats.fast_resent += len(due)
+            if now >= self._tail_deadline(peer):
+                timeout = policy.tail_timeout(peer.round_trip.timeout(), peer.expiries)
+                tail = []
+                for pending in peer.pending.values():   # ordered by last transmission
+                    if pending.last_sent > now - timeout:
+                        break
+                    if pending.lost_at is None:
+                        tail.append(pending)
+                # Nothing answered for a whole timeout: back off until the next answer (RFC 6298 5.5).
+                peer.expiries += 1
+                self.stats.tail_resent += len(tail)
+                due.extend(tail)
+            for pending in due:
+                if now - pending.first_sent >= policy.message_lifetime_s:
+                    peer.remove(pending.message.message_id)   # a later retry could outlive the receiver's memory
+                    failed.append(Undelivered(pending.message, pending.sends))
+                    continue
+                pending.sends += 1
+                pending.last_sent = now
+                pending.lost_at = None
+                peer.suspects.discard(pending.message.message_id)
+                peer.touch(pending)
+                resend.append(pending.message)
         self.stats.resent += len(resend)
+        self.stats.undelivered += len(failed)
         for undelivered in failed:
             message = undelivered.message
             negotiation = self.negotiations.get(message.coalition_id)
             if message.kind is MessageKind.COMMIT_REQUEST and negotiation is not None:
                 negotiation.rejected.setdefault(message.receiver, 'no answer')
         horizon = now - (self.policy.duplicate_memory_s or 0.0)
-        for key in [key for key, seen in self._seen.items() if seen.time < horizon]:
-            del self._seen[key]
+        if self._seen and next(iter(self._seen.values())).time < horizon:
+            for key in [key for key, seen in self._seen.items() if seen.time < horizon]:
+                del self._seen[key]
         for key in [key for key, time in self._released.items() if time < horizon]:
             del self._released[key]
         return resend, failed
@@ -466,12 +573,24 @@ class ReliableChannel:
         return reply
 
     def _on_answer(self, message: ChannelMessage, now: float) -> Received:
-        pending = self._pending.pop((message.in_reply_to, message.sender), None)
+        peer = self._peer(message.sender)
+        pending = peer.remove(message.in_reply_to)
+        # The peer is alive and working through its inbox: restart its tail timer, end the back-off.
+        peer.last_answer_at = now
+        peer.expiries = 0
         if pending is not None:
             self.stats.answered += 1
-            if pending.attempts == 1:  # Karn: an answer to a re-sent message is ambiguous, no sample
-                sample = max(now - pending.sent_at, 0.0)
-                self._round_trips.setdefault(message.sender, RoundTripEstimate()).add(sample)
+            if pending.sends == 1:  # Karn: an answer to a re-sent message is ambiguous, no sample
+                peer.round_trip.add(max(now - pending.last_sent, 0.0))
+            # Fast retransmit: copies transmitted reorder_window before the answered one are lost
+            # (confirmed if still unanswered reorder_window from now; see the module docstring).
+            proof = pending.first_transmitted - self.policy.reorder_window_s
+            for earlier in peer.pending.values():   # ordered by last transmission
+                if earlier.last_sent > proof:
+                    break
+                if earlier.lost_at is None:
+                    earlier.lost_at = now
+                    peer.suspects.add(earlier.message.message_id)
         if message.kind is MessageKind.ACK:
             if pending is None:
                 self.stats.ignored += 1
@@ -522,9 +641,10 @@ class ReliableChannel:
         if negotiation is None or negotiation.released:
             return []
         negotiation.released = True
-        for key, pending in list(self._pending.items()):
-            if pending.message.kind is MessageKind.COMMIT_REQUEST and pending.message.coalition_id == coalition_id:
-                del self._pending[key]
+        for peer in self._peers.values():
+            for message_id, pending in list(peer.pending.items()):
+                if pending.message.kind is MessageKind.COMMIT_REQUEST and pending.message.coalition_id == coalition_id:
+                    peer.remove(message_id)
         self.ledger.release(coalition_id, self.robot, now)
         messages = []
         for helper in negotiation.helpers:

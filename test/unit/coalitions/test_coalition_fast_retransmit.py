@@ -1,0 +1,174 @@
+"""Re-sending only what is known lost (core.reliable_channel, no ROS): a busy receiver is never
+re-flooded, a copy proven lost by a later copy's answer is re-sent at once, a tail loss falls back
+to the backed-off timeout, a peer is given up only after peer_timeout of silence, and the
+receiver's queue hands negotiation messages to the agent before queued offers."""
+from __future__ import annotations
+
+import pytest
+
+from coalition_agents.core.batching import InboxQueue, piggybacked_ack
+from coalition_agents.core.channel_codec import (
+    MessageKind, OfferSummary, commit_request_message, offer_message, release_message, request_message,
+)
+from coalition_agents.core.information import Entity
+from coalition_agents.core.reliable_channel import ReliableChannel, RetryPolicy
+from coalition_agents.core.requests import InformationRequest
+
+TEAM = ('robot_1', 'robot_2', 'robot_3')
+TICK = 0.01
+
+
+def request(library, text='F_G(X)', sender='robot_1', message_id=1):
+    return request_message(InformationRequest(sender, library.parse(text, TEAM)), message_id)
+
+
+def send(library, sender, now, receiver='robot_2'):
+    [copy] = sender.send(request(library, message_id=sender.new_id()), now, [receiver])
+    return copy
+
+
+def ack(copy, now, sender):
+    """``copy``'s receiver acknowledges it; the ACK reaches ``sender`` at ``now``."""
+    sender.receive(piggybacked_ack(copy.receiver, sender.robot, copy.message_id), now)
+
+
+def ticks(start, end):
+    return [start + k * TICK for k in range(int(round((end - start) / TICK)) + 1)]
+
+
+def test_a_slow_but_alive_receiver_gets_no_copy_twice(library):
+    """Acks delayed 1 s (the receiver works through a backlog), no loss, default policy: a message
+    every 10 ms for 3 s is answered without a single re-send (the measured round trips include
+    the lag, and every answer restarts the tail timer)."""
+    sender, receiver = ReliableChannel('robot_1'), ReliableChannel('robot_2')
+    in_flight = []     # (ack arrival time, copy)
+    for now in ticks(0.0, 5.0):
+        if now <= 3.0:
+            copy = send(library, sender, now)
+            assert receiver.receive(copy, now + 0.004).deliver == copy
+            in_flight.append((now + 1.0, copy))
+        while in_flight and in_flight[0][0] <= now + 1e-9:
+            ack(in_flight.pop(0)[1], now, sender)
+        resend, failed = sender.poll(now)
+        assert resend == [] and failed == [], now
+    assert not in_flight and sender.next_deadline() == float('inf')
+    assert sender.stats.resent == 0 and sender.stats.answered == 301 and receiver.stats.duplicates == 0
+
+
+def test_a_copy_is_fast_retransmitted_once_a_later_copy_is_answered(library):
+    policy = RetryPolicy(reorder_window_s=0.05)
+    sender = ReliableChannel('robot_1', policy)
+    lost = send(library, sender, 0.0)                    # the link loses it
+    close = send(library, sender, 0.06)                  # within the reorder window of the proof: not suspected
+    proof = send(library, sender, 0.1)
+    ack(proof, 0.11, sender)
+    assert sender.poll(0.159) == ([], [])                # the answer may have overtaken lost's: wait the window
+    resend, failed = sender.poll(0.16)
+    assert resend == [lost] and failed == [] and sender.stats.fast_resent == 1
+    assert sender.awaiting(close.message_id) == ('robot_2',)
+    ack(lost, 0.17, sender)
+    ack(close, 0.18, sender)
+    assert sender.next_deadline() == float('inf') and sender.stats.tail_resent == 0
+
+
+def test_reordered_answers_within_the_window_cause_no_retransmission(library):
+    sender = ReliableChannel('robot_1', RetryPolicy(reorder_window_s=0.05))
+    first = send(library, sender, 0.0)
+    second = send(library, sender, 0.1)
+    ack(second, 0.12, sender)                            # the second batch's answer arrives first ...
+    assert sender.poll(0.15) == ([], [])
+    ack(first, 0.13 + 0.02, sender)                      # ... the first's 30 ms later
+    for now in ticks(0.16, 5.0):
+        assert sender.poll(now) == ([], [])
+    assert sender.stats.resent == 0
+
+
+def test_batches_are_compared_by_their_transmission_time(library):
+    """Two copies queued 60 ms apart but sent in one batch: the answer to the later one proves
+    nothing about the earlier one."""
+    sender = ReliableChannel('robot_1', RetryPolicy(reorder_window_s=0.05))
+    early = send(library, sender, 0.0)
+    late = send(library, sender, 0.06)
+    sender.transmitted('robot_2', [early.message_id, late.message_id], 0.06)
+    ack(late, 0.07, sender)
+    assert sender.poll(0.2) == ([], []) and sender.stats.fast_resent == 0
+
+
+def test_a_tail_loss_is_re_sent_after_the_backed_off_timeout(library):
+    policy = RetryPolicy(tail_timeout_s=1.0, min_timeout_s=1.0, backoff=2.0, max_timeout_s=4.0, peer_timeout_s=10.0)
+    sender = ReliableChannel('robot_1', policy)
+    ack(send(library, sender, 0.0), 0.01, sender)        # the peer is there (RTT 10 ms)
+    tail = send(library, sender, 0.5)                    # lost; nothing is sent after it
+    sends = {}
+    for now in ticks(0.5, 6.0):
+        for copy in sender.poll(now)[0]:
+            sends[round(now, 2)] = copy
+    assert sends == {1.5: tail, 3.5: tail}               # after 1 s, then 2 s more (backed off)
+    assert sender.stats.tail_resent == 2 and sender.stats.fast_resent == 0
+    ack(tail, 6.0, sender)
+    assert sender.next_deadline() == float('inf') and sender.stats.undelivered == 0
+
+
+def test_a_peer_is_given_up_only_after_peer_timeout_without_answers(library):
+    """robot_2's link keeps losing one message while robot_2 answers the others: it is re-sent
+    more often than any fixed retry budget allowed, and given up only after robot_2 has answered
+    nothing for peer_timeout."""
+    policy = RetryPolicy(reorder_window_s=0.05, tail_timeout_s=0.5, max_timeout_s=1.0, peer_timeout_s=3.0)
+    sender = ReliableChannel('robot_1', policy)
+    unlucky = send(library, sender, 0.0)
+    failed_at = {}
+    others = []
+    last_answer = None
+    for now in ticks(0.0, 10.0):
+        if now < 5.0 and round(now / TICK) % 20 == 10:   # every 0.2 s another message, answered 20 ms later
+            others.append((now + 0.02, send(library, sender, now)))
+        while others and others[0][0] <= now + 1e-9 and now < 5.0:
+            ack(others.pop(0)[1], now, sender)
+            last_answer = now
+        _, failed = sender.poll(now)
+        for undelivered in failed:
+            failed_at[undelivered.message.message_id] = now
+    assert sender.stats.fast_resent >= 20                # the unlucky message, again and again
+    assert last_answer == pytest.approx(4.92)
+    assert failed_at[unlucky.message_id] == pytest.approx(last_answer + 3.0, abs=TICK + 1e-9)
+    assert min(failed_at.values()) >= last_answer + 3.0 - 1e-9   # nothing given up while robot_2 answered
+    assert sender.awaiting(unlucky.message_id) == () and sender.stats.undelivered == len(failed_at)
+
+
+def test_a_silent_peer_is_given_up_and_fails_the_negotiation():
+    policy = RetryPolicy(tail_timeout_s=0.5, max_timeout_s=1.0, peer_timeout_s=2.0)
+    leader = ReliableChannel('robot_1', policy)
+    negotiation, requests, _ = leader.propose('c', ('robot_1', 'robot_2'), 5.0, 0.0, 0.0)
+    sends, failed = len(requests), []
+    for now in ticks(0.0, 2.5):
+        resend, gave_up = leader.poll(now)
+        sends += len(resend)
+        failed += gave_up
+    assert [f.message.kind for f in failed] == [MessageKind.COMMIT_REQUEST] and failed[0].attempts == sends == 3
+    assert negotiation.state(2.5) == 'failed' and negotiation.rejected == {'robot_2': 'no answer'}
+
+
+def test_commit_messages_are_handed_to_the_agent_before_queued_offers(library):
+    """A helper's inbox holds a burst of offers when its leader's COMMIT_REQUEST and a RELEASE
+    arrive: the agent gets the negotiation messages first, then the offers in arrival order."""
+    helper = ReliableChannel('robot_2')
+    queue: InboxQueue = InboxQueue()
+    asked = request(library, sender='robot_2', message_id=1)
+    offers = []
+    for k in range(5):
+        offer = offer_message(OfferSummary('robot_3', asked.request.label,
+                                           asked.request.label.substitute({asked.request.label.variables[0]:
+                                                                           Entity('robot_3', robot=True)}),
+                                           1.0, ('robot_3',)), 100 + k, asked)
+        offers.append(offer)
+    commit = commit_request_message('robot_1', 7, 'robot_2', 'robot_1/7', ('robot_1', 'robot_2'), 9.0, 0.0)
+    release = release_message('robot_3', 200, 'robot_2', 'robot_3/1')
+    for now, message in enumerate(offers[:3] + [commit] + offers[3:] + [release]):
+        received = helper.receive(message, float(now))
+        assert [r.kind for r in received.replies] in ([MessageKind.ACK], [MessageKind.COMMIT_ACCEPT])
+        queue.put(received.deliver, received)
+    order = []
+    while (entry := queue.pop()) is not None:
+        order.append(entry[0])
+    assert order == [commit, release] + offers and len(queue) == 0
+    assert helper.ledger.holds('robot_1/7', 'robot_1', 8.0)
