@@ -492,7 +492,9 @@ class SchemaAgentNode(Node):
                 self._best_cost, self._best_since = cost, now
         if now >= self.started_at + self.search_time:
             return True
-        return self._best_since is not None and now - self._best_since >= self.settle_time
+        # Settled only while the coalition is executable now: readings that lapsed for a moment
+        # (a busy executor) must not end the search before search_time with nothing to propose.
+        return bool(coalitions) and self._best_since is not None and now - self._best_since >= self.settle_time
 
     def _lead(self, now: float) -> None:
         if self.state == 'searching' and self._settled(now):
