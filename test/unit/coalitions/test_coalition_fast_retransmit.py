@@ -148,6 +148,39 @@ def test_a_silent_peer_is_given_up_and_fails_the_negotiation():
     assert negotiation.state(2.5) == 'failed' and negotiation.rejected == {'robot_2': 'no answer'}
 
 
+def test_time_this_robot_did_not_poll_is_not_counted_against_its_peers(library):
+    """The whole process stalled 8 s (one agent's long evaluation): the peer's answers wait unread
+    in the inbox meanwhile, so the gap must not make robot_2 look silent; the answers read after
+    the stall keep it alive, and only real silence afterwards gives it up."""
+    policy = RetryPolicy(tail_timeout_s=0.5, max_timeout_s=1.0, peer_timeout_s=3.0, stall_s=0.5)
+    sender = ReliableChannel('robot_1', policy)
+    first = send(library, sender, 0.0)
+    for now in ticks(0.0, 1.0):
+        sender.poll(now)
+    _, failed = sender.poll(9.0)                       # the next poll, 8 s later
+    assert failed == [] and sender.stats.stalls == 1
+    ack(first, 9.05, sender)                           # its answer, read from the inbox after the stall
+    assert sender.awaiting(first.message_id) == ()
+    second = send(library, sender, 9.1)
+    failed_at = None
+    for now in ticks(9.1, 13.0):                       # robot_2 really is silent now
+        _, failed = sender.poll(now)
+        if failed and failed_at is None:
+            failed_at = now
+    assert failed_at == pytest.approx(9.1 + 3.0, abs=TICK + 1e-9)   # silent since it owed the second
+    assert sender.awaiting(second.message_id) == ()
+
+
+def test_without_the_stall_rule_the_same_gap_would_give_the_peer_up(library):
+    policy = RetryPolicy(tail_timeout_s=0.5, max_timeout_s=1.0, peer_timeout_s=3.0, stall_s=10.0)
+    sender = ReliableChannel('robot_1', policy)
+    first = send(library, sender, 0.0)
+    for now in ticks(0.0, 1.0):
+        sender.poll(now)
+    _, failed = sender.poll(9.0)
+    assert [f.message.message_id for f in failed] == [first.message_id] and sender.stats.stalls == 0
+
+
 def test_commit_messages_are_handed_to_the_agent_before_queued_offers(library):
     """A helper's inbox holds a burst of offers when its leader's COMMIT_REQUEST and a RELEASE
     arrive: the agent gets the negotiation messages first, then the offers in arrival order."""

@@ -31,7 +31,11 @@ Delivery (:class:`ReliableChannel`; TCP's fast retransmit and selective repeat, 
       At expiry the copies to that peer unanswered for the timeout are re-sent.
     * A peer is given up -- every copy still waiting for it is reported :class:`Undelivered` --
       only when it has answered nothing at all for ``peer_timeout_s`` while it owed an answer.
-      Retries are not counted against a peer whose answers keep arriving.
+      Retries are not counted against a peer whose answers keep arriving. Time this robot did not
+      listen is not counted either: when :meth:`ReliableChannel.poll` has not run for more than
+      ``stall_s`` (the process was busy, e.g. one agent's long evaluation stalled every agent of a
+      host process), that gap is added to every peer's silence start and every copy's first send,
+      since the answers that came meanwhile are still waiting unread in the inbox.
     * A retry keeps its message id. A receiver remembers (sender, message id) of every message
       it delivered, with the answer it gave, for ``duplicate_memory_s``: a duplicate is answered
       again (the ACK or the commitment answer may have been the message that was lost) but never
@@ -86,7 +90,8 @@ class RetryPolicy:
     first round trip is measured (above the ~1 s processing lag of a busy agent in the column
     of 10, so that only a loss makes it expire), then the measured timeout, at least
     ``min_timeout_s`` 0.2 s; doubling up to ``max_timeout_s`` 8 s; ``peer_timeout_s`` 10 s of
-    silence before a peer is given up; ``message_lifetime_s`` 30 s; ``duplicate_memory_s``
+    silence before a peer is given up; ``stall_s`` 0.5 s: a longer gap between two polls is time
+    this robot did not listen, not counted against peers; ``message_lifetime_s`` 30 s; ``duplicate_memory_s``
     (default: the lifetime plus 1 s for the last retry in flight) must outlast every retry of
     a message, or a late retry would be delivered again.
     """
@@ -99,9 +104,10 @@ class RetryPolicy:
     peer_timeout_s: float = 10.0
     message_lifetime_s: float = 30.0
     duplicate_memory_s: float | None = None
+    stall_s: float = 0.5
 
     FIELDS = ('reorder_window_s', 'tail_timeout_s', 'min_timeout_s', 'backoff', 'max_timeout_s', 'peer_timeout_s',
-              'message_lifetime_s', 'duplicate_memory_s')
+              'message_lifetime_s', 'duplicate_memory_s', 'stall_s')
 
     def __post_init__(self) -> None:
         checks = (('reorder_window_s', self.reorder_window_s, 'a number >= 0', lambda v: v >= 0),
@@ -112,6 +118,7 @@ class RetryPolicy:
                    f'a number >= tail_timeout_s = {self.tail_timeout_s!r} and >= min_timeout_s = {self.min_timeout_s!r}',
                    lambda v: v >= max(self.tail_timeout_s, self.min_timeout_s)),
                   ('peer_timeout_s', self.peer_timeout_s, 'a number > 0', lambda v: v > 0),
+                  ('stall_s', self.stall_s, 'a number > 0', lambda v: v > 0),
                   ('message_lifetime_s', self.message_lifetime_s,
                    f'a number >= peer_timeout_s = {self.peer_timeout_s!r}', lambda v: v >= self.peer_timeout_s))
         for name, value, allowed, ok in checks:
@@ -179,6 +186,7 @@ class ChannelStats:
     delivered: int = 0      # messages delivered to the agent
     duplicates: int = 0     # duplicate messages received
     ignored: int = 0        # messages for other robots, own echoes, stale answers
+    stalls: int = 0         # polls after a gap longer than stall_s (time not counted against peers)
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -373,6 +381,7 @@ class ReliableChannel:
         #: (coalition id, leader) -> when its RELEASE arrived: a COMMIT_REQUEST delayed past its
         #: RELEASE must not commit this robot to a coalition its leader has given up
         self._released: dict[tuple[str, str], float] = {}
+        self._last_poll: float | None = None
 
     def new_id(self) -> int:
         return next(self._ids)
@@ -441,6 +450,17 @@ class ReliableChannel:
         """Stop retrying ``message_id`` (e.g. a request whose search time is over); copies dropped."""
         return sum(peer.remove(message_id) is not None for peer in self._peers.values())
 
+    def _discount_stall(self, gap: float) -> None:
+        """This robot did not poll for ``gap`` s: shift what judges its peers by that much."""
+        self.stats.stalls += 1
+        for peer in self._peers.values():
+            if math.isfinite(peer.last_answer_at):
+                peer.last_answer_at += gap
+            if peer.owing_since is not None:
+                peer.owing_since += gap
+            for pending in peer.pending.values():
+                pending.first_sent += gap
+
     def _tail_deadline(self, peer: _Peer) -> float:
         if not peer.pending:
             return NEVER
@@ -464,6 +484,9 @@ class ReliableChannel:
         resend: list[ChannelMessage] = []
         failed: list[Undelivered] = []
         policy = self.policy
+        if self._last_poll is not None and now - self._last_poll > policy.stall_s:
+            self._discount_stall(now - self._last_poll)
+        self._last_poll = now
         for robot, peer in self._peers.items():
             if not peer.pending:
                 continue
