@@ -1,4 +1,10 @@
-"""Errors raised by the role engine core."""
+"""Errors raised by the role engine core, and the number checks that raise them."""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
 
 
 class RoleEngineError(ValueError):
@@ -10,3 +16,26 @@ class RoleEngineError(ValueError):
     (:mod:`pybullet_bridge.core.fields`), whose errors are ``ScenarioError``; both are
     ``ValueError`` subclasses with the same message style.
     """
+
+
+def check_real(value: Any, path: str, *, positive: bool = False, non_negative: bool = False) -> float:
+    """``value`` as a finite float, else RoleEngineError naming ``path`` (and the bound it breaks)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise RoleEngineError(f'{path}: must be a number (got {type(value).__name__} {value!r})')
+    number = float(value)
+    if not math.isfinite(number):
+        raise RoleEngineError(f'{path}: must be finite (got {number})')
+    if positive and number <= 0.0:
+        raise RoleEngineError(f'{path}: must be > 0 (got {number})')
+    if non_negative and number < 0.0:
+        raise RoleEngineError(f'{path}: must be >= 0 (got {number})')
+    return number
+
+
+def check_count(value: Any, path: str, *, minimum: int) -> int:
+    """``value`` as an int >= ``minimum``, else RoleEngineError naming ``path``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise RoleEngineError(f'{path}: must be an integer (got {type(value).__name__} {value!r})')
+    if value < minimum:
+        raise RoleEngineError(f'{path}: must be >= {minimum} (got {value})')
+    return int(value)

@@ -30,14 +30,13 @@ lets a caller also demand the safety distance ``epsilon``.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from . import gp_gtsam
-from .errors import RoleEngineError
+from .errors import RoleEngineError, check_count, check_real
 from .gp_costs import (CostTerm, GPPriorTerm, InterpolatedObstacleTerm, ObstacleTerm, SignedDistanceQuery,
                        StatePriorTerm, VelocityLimitTerm, query_sdf, term_costs)
 from .gp_prior import POSITION_DIM, STATE_DIM, interpolate_states
@@ -49,27 +48,6 @@ FORMULATIONS = ('vectorised', 'gtsam')
 
 def _fail(path: str, message: str) -> RoleEngineError:
     return RoleEngineError(f'{path}: {message}')
-
-
-def _check_real(value: Any, path: str, *, positive: bool = False, non_negative: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise _fail(path, f'must be a number (got {type(value).__name__} {value!r})')
-    number = float(value)
-    if not math.isfinite(number):
-        raise _fail(path, f'must be finite (got {number})')
-    if positive and number <= 0.0:
-        raise _fail(path, f'must be > 0 (got {number})')
-    if non_negative and number < 0.0:
-        raise _fail(path, f'must be >= 0 (got {number})')
-    return number
-
-
-def _check_count(value: Any, path: str, *, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise _fail(path, f'must be an integer (got {type(value).__name__} {value!r})')
-    if value < minimum:
-        raise _fail(path, f'must be >= {minimum} (got {value})')
-    return int(value)
 
 
 @dataclass(frozen=True)
@@ -115,23 +93,23 @@ class GPPlannerConfig:
         if isinstance(qc, (list, tuple, np.ndarray)):
             if len(qc) != POSITION_DIM:
                 raise _fail(f'{path}.qc', f'must be one number or two (qx, qy) (got {len(qc)} values)')
-            qc_pair = tuple(_check_real(q, f'{path}.qc[{i}]', positive=True) for i, q in enumerate(qc))
+            qc_pair = tuple(check_real(q, f'{path}.qc[{i}]', positive=True) for i, q in enumerate(qc))
         else:
-            value = _check_real(qc, f'{path}.qc', positive=True)
+            value = check_real(qc, f'{path}.qc', positive=True)
             qc_pair = (value, value)
         object.__setattr__(self, 'qc', qc_pair)
         for name in ('sigma_obs', 'sigma_velocity', 'sigma_start_position', 'sigma_start_velocity',
                      'sigma_goal_position', 'sigma_goal_velocity'):
-            _check_real(getattr(self, name), f'{path}.{name}', positive=True)
+            check_real(getattr(self, name), f'{path}.{name}', positive=True)
         for name in ('epsilon', 'robot_radius'):
-            _check_real(getattr(self, name), f'{path}.{name}', non_negative=True)
+            check_real(getattr(self, name), f'{path}.{name}', non_negative=True)
         if self.max_speed is not None:
-            _check_real(self.max_speed, f'{path}.max_speed', positive=True)
-        _check_real(self.relative_error_tol, f'{path}.relative_error_tol', non_negative=True)
-        _check_real(self.lambda_initial, f'{path}.lambda_initial', positive=True)
-        _check_count(self.obstacle_interpolation, f'{path}.obstacle_interpolation', minimum=0)
-        _check_count(self.collision_check_interpolation, f'{path}.collision_check_interpolation', minimum=0)
-        _check_count(self.max_iterations, f'{path}.max_iterations', minimum=1)
+            check_real(self.max_speed, f'{path}.max_speed', positive=True)
+        check_real(self.relative_error_tol, f'{path}.relative_error_tol', non_negative=True)
+        check_real(self.lambda_initial, f'{path}.lambda_initial', positive=True)
+        check_count(self.obstacle_interpolation, f'{path}.obstacle_interpolation', minimum=0)
+        check_count(self.collision_check_interpolation, f'{path}.collision_check_interpolation', minimum=0)
+        check_count(self.max_iterations, f'{path}.max_iterations', minimum=1)
         if self.formulation not in FORMULATIONS:
             raise _fail(f'{path}.formulation', f'must be one of {", ".join(FORMULATIONS)} (got {self.formulation!r})')
 
@@ -257,7 +235,7 @@ class GPPlanner:
 
     def _check_problem(self, initial, total_time, start, goal, extra_terms):
         states = _check_states(initial, 'initial')
-        total_time = _check_real(total_time, 'total_time', positive=True)
+        total_time = check_real(total_time, 'total_time', positive=True)
         start = states[0].copy() if start is None else _check_state(start, 'start')
         goal = states[-1].copy() if goal is None else _check_state(goal, 'goal')
         extra = list(extra_terms)

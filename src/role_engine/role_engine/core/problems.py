@@ -35,7 +35,7 @@ import numpy as np
 from pybullet_bridge.core.fields import Fields
 
 from .conflict import SharedRole
-from .errors import RoleEngineError
+from .errors import RoleEngineError, check_real
 from .trajectory import interpolate
 
 PROBLEM_KINDS = ('silent', 'stuck', 'off_role')
@@ -53,8 +53,8 @@ class ProblemSettings:
 
     def __post_init__(self) -> None:
         for name in ('silence_timeout', 'stuck_distance', 'stuck_time', 'off_role_distance'):
-            _check_number(getattr(self, name), f'problem_detection.{name}', positive=True)
-        _check_number(self.off_role_grace, 'problem_detection.off_role_grace', positive=False)
+            check_real(getattr(self, name), f'problem_detection.{name}', positive=True)
+        check_real(self.off_role_grace, 'problem_detection.off_role_grace', non_negative=True)
 
     @classmethod
     def from_mapping(cls, data: Any, path: str = 'problem_detection', *,
@@ -67,13 +67,6 @@ class ProblemSettings:
                    stuck_time=fields.number('stuck_time', cls.stuck_time, gt=0.0),
                    off_role_distance=fields.number('off_role_distance', cls.off_role_distance, gt=0.0),
                    off_role_grace=fields.number('off_role_grace', cls.off_role_grace, ge=0.0))
-
-
-def _check_number(value: Any, path: str, *, positive: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value) or (value <= 0.0 if positive else value < 0.0):
-        raise RoleEngineError(f"{path}: must be a finite number {'> 0' if positive else '>= 0'} (got {value!r})")
-    return float(value)
 
 
 @dataclass(frozen=True)

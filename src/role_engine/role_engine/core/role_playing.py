@@ -50,7 +50,7 @@ from pybullet_bridge.core.fields import Fields
 
 from .conflict import SharedRole, find_conflicts
 from .environment import RobotEnvironment
-from .errors import RoleEngineError
+from .errors import RoleEngineError, check_count, check_real
 from .gp_costs import CostTerm, InterpolatedMovingObstacleTerm, MovingObstacleTerm
 from .gp_planner import GPPlanner, GPPlannerConfig, GPPlanResult
 from .trajectory import interpolate
@@ -80,19 +80,12 @@ class AvoidanceSettings:
     detour_scales: tuple[float, ...] = (1.0, 2.0)
 
     def __post_init__(self) -> None:
-        for name, value, low in (('clearance', self.clearance, 0.0), ('sigma', self.sigma, None)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or (value < 0.0 if low is not None else value <= 0.0):
-                raise RoleEngineError(f"robot_avoidance.{name}: must be a finite number "
-                                      f"{'>= 0' if low is not None else '> 0'} (got {value!r})")
-        if isinstance(self.interpolation, bool) or not isinstance(self.interpolation, int) or self.interpolation < 0:
-            raise RoleEngineError(f'robot_avoidance.interpolation: must be an integer >= 0 (got {self.interpolation!r})')
+        check_real(self.clearance, 'robot_avoidance.clearance', non_negative=True)
+        check_real(self.sigma, 'robot_avoidance.sigma', positive=True)
+        check_count(self.interpolation, 'robot_avoidance.interpolation', minimum=0)
         scales = tuple(self.detour_scales)
         for index, scale in enumerate(scales):
-            if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not (math.isfinite(scale)
-                                                                                      and scale > 0):
-                raise RoleEngineError(f'robot_avoidance.detour_scales[{index}]: must be a finite number > 0 '
-                                      f'(got {scale!r})')
+            check_real(scale, f'robot_avoidance.detour_scales[{index}]', positive=True)
         object.__setattr__(self, 'detour_scales', tuple(float(s) for s in scales))
 
     @classmethod
