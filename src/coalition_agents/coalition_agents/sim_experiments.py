@@ -38,6 +38,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 
 import yaml
 
+from .core.channel_codec import MessageKind
 from .core.errors import ConfigError
 from .core.sim_scenarios import (
     COLUMN_TYPES, Placement, SensorSettings, agent_parameter_file, bridge_scenario, capability_file,
@@ -52,11 +53,6 @@ STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
 EXPERIMENT_FILE = 'coalition_agents.yaml'
 COLUMN_CONFIG = 'scenarios/fig9_column.yaml'
 NODE_PREFIX = 'schema_agent_'
-#: AgentMessage kinds (coalition_interfaces/AgentMessage constants).
-KIND_NAMES = {1: 'request', 2: 'offer', 3: 'ack', 4: 'commit_request', 5: 'commit_accept', 6: 'commit_reject',
-              7: 'release', 8: 'information'}
-OFFER = 2
-ACK = 3
 #: the leader's status detail when it has its first executable coalition (schema_agent_node)
 FOUND_MARK = 'first executable coalition at'
 #: the start of the search in the leader's status detail (its own clock)
@@ -128,7 +124,8 @@ def read_coalition_bag(bag: Path) -> CoalitionRun:
             if hasattr(msg, 'acked_ids'):  # an AgentMessageBatch (agent_channel): stamped when it left the link
                 run.messages.extend(MessageRecord(stamp, m.sender, m.receiver, int(m.kind), tuple(m.members),
                                                   float(m.cost)) for m in msg.messages)
-                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, ACK) for _ in msg.acked_ids)
+                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
+                                    for _ in msg.acked_ids)
             else:
                 run.messages.append(MessageRecord(stamp, msg.sender, msg.receiver, int(msg.kind),
                                                   tuple(msg.members), float(msg.cost)))
@@ -182,7 +179,7 @@ def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
         helpers = set(committed.members) - {leader}
         covered: set[str] = set()
         for message in run.messages:
-            if message.kind != OFFER or message.receiver != leader:
+            if message.kind != MessageKind.OFFER or message.receiver != leader:
                 continue
             provided = ({message.sender} | set(message.members)) - {leader}
             covered |= provided
@@ -243,10 +240,17 @@ def message_counts(run: CoalitionRun, robots: Sequence[str], start: float, end: 
             'received': received}
 
 
+def _kind_name(kind: int) -> str:
+    try:
+        return MessageKind(kind).text
+    except ValueError:
+        return str(kind)
+
+
 def kind_totals(run: CoalitionRun) -> dict[str, int]:
     totals: dict[str, int] = defaultdict(int)
     for message in run.messages:
-        totals[KIND_NAMES.get(message.kind, str(message.kind))] += 1
+        totals[_kind_name(message.kind)] += 1
     return dict(totals)
 
 
