@@ -127,13 +127,19 @@ def test_incremental_evaluation_sends_the_same_offers_and_finds_the_same_coaliti
     assert work(fast) < work(full) / 5
 
 
-def test_an_unchanged_tick_does_no_work(library, costs, tasks):
+def settled_column(library, costs, tasks):
+    """A 3-robot column whose back robot has searched until no message is left in flight."""
     wire = column(library, costs, tasks, 3, incremental=True)
     sense(wire, 3, 0.0)
     wire.agents['robot_3'].start()
     for _ in range(10):
         if not wire.round(0.0):
             break
+    return wire
+
+
+def test_an_unchanged_tick_does_no_work(library, costs, tasks):
+    wire = settled_column(library, costs, tasks)
     assert wire.agents['robot_3'].coalitions(0.0)
     before = {robot: agent.evaluations for robot, agent in wire.agents.items()}
     for now in (0.1, 0.2, 0.3):
@@ -145,12 +151,7 @@ def test_an_unchanged_tick_does_no_work(library, costs, tasks):
 
 
 def test_a_new_subscriber_gets_the_existing_answers_without_reevaluation(library, costs, tasks):
-    wire = column(library, costs, tasks, 3, incremental=True)
-    sense(wire, 3, 0.0)
-    wire.agents['robot_3'].start()
-    for _ in range(10):
-        if not wire.round(0.0):
-            break
+    wire = settled_column(library, costs, tasks)
     helper = wire.agents['robot_1']
     space = next(space for space in helper.spaces.values() if space.best and
                  any(request.requester == 'robot_3' for request, _ in space.subscribers))
@@ -165,12 +166,7 @@ def test_a_new_subscriber_gets_the_existing_answers_without_reevaluation(library
 
 
 def test_a_changed_reading_reevaluates_only_what_uses_that_sensor(library, costs, tasks):
-    wire = column(library, costs, tasks, 3, incremental=True)
-    sense(wire, 3, 0.0)
-    wire.agents['robot_3'].start()
-    for _ in range(10):
-        if not wire.round(0.0):
-            break
+    wire = settled_column(library, costs, tasks)
     back = wire.agents['robot_3']
     seeing = back.coalitions(0.0)
     before = back.evaluations
