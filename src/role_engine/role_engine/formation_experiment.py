@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+import yaml
 
 from collab_tools.core.bag_analysis import read_messages
 
@@ -240,39 +241,28 @@ def run_formation(config_dir: str | Path, run_dir: str | Path, log: Log = print,
 
 
 def _run_with_stop(experiment: Path, config_dir: Path, run_dir: Path, robot: str, versions: int, log: Log):
-    """The experiment file's nodes in a session; stop ``robot``'s player mid-run; wait for the engine."""
-    from collab_tools.orchestration.experiment import load_experiment, parse_node
-    from collab_tools.orchestration.node_process import NodeSpec
-    from collab_tools.orchestration.session import NodeExitedError, Session
+    """The experiment with two more after_start steps: once ``robot``'s player has published
+    ``versions`` re-optimised roles, stop that player; the run then waits for the engine as usual."""
+    from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
 
     data = load_experiment(experiment)
-    text = json.dumps(data).replace('{config}', str(config_dir)).replace('{run_dir}', str(run_dir))
-    data = json.loads(text)
-    specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
-    player = next((s.label for s in specs if s.executable == 'role_player'
-                   and any(isinstance(p, dict) and p.get('robot') == robot for p in s.parameters)), None)
+    player = next((node.get('name') or parse_node(node, 'node').label for node in data['nodes']
+                   if node.get('executable') == 'role_player'
+                   and any(isinstance(p, dict) and p.get('robot') == robot for p in node.get('parameters', []))),
+                  None)
     if player is None:
         raise ValueError(f'{experiment}: no role_player node drives {robot}')
-    bag = run_dir / 'bags' / str(data['record'].get('bag', data['name']))
-    bag.parent.mkdir(parents=True, exist_ok=True)
-    timeout = float(data.get('timeout', 300))
-    message, condition = '', False
-    with Session(data['name'], run_dir=run_dir, log=lambda _t: None) as session:
-        session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder',
-                               parameters=[{'output': str(bag), 'topics': data['record']['topics']}]))
-        for spec in specs:
-            session.start(spec)
-        try:
-            session.wait_for_message(CHANNEL, 'role_interfaces/msg/ProcessRole', timeout=timeout,
-                                     predicate=lambda m: m.robot == robot and m.version >= versions)
-            log(f'[roles-formation] {robot} published {versions} re-optimised roles: stopping {player}')
-            session.stop(player)
-            condition = session.wait_for_exit(data['until']['exit'], timeout) == 0
-            message = 'completion condition met' if condition else 'role engine exited with an error'
-        except (NodeExitedError, TimeoutError) as error:
-            message = str(error)
-        session.condition_met = condition
-    return bag, message, session.exit_code()
+    data['after_start'] = list(data.get('after_start') or []) + [
+        {'wait_for_message': {'topic': CHANNEL, 'type': 'role_interfaces/msg/ProcessRole',
+                              'timeout': float(data.get('timeout', 300)),
+                              'equals': {'robot': robot}, 'at_least': {'version': versions}}},
+        {'stop': player}]
+    run_dir.mkdir(parents=True, exist_ok=True)
+    generated = run_dir / 'experiment.yaml'
+    generated.write_text(yaml.safe_dump(data, sort_keys=False))
+    log(f'[roles-formation] stopping {player} once {robot} has published {versions} re-optimised roles')
+    outcome = run_experiment(generated, config_dir, run_dir=run_dir, log=lambda _text: None)
+    return outcome.bag, outcome.message, outcome.exit_code
 
 
 # ------------------------------------------------------------------------------- table, plots

@@ -99,3 +99,13 @@ class _FinishedNode:
 ])
 def test_only_the_awaited_node_exiting_cleanly_counts_as_completion(until, node, expected):
     assert _finished_as_awaited(until, node) is expected
+
+
+def test_message_conditions_compare_equal_and_at_least_fields():
+    from types import SimpleNamespace
+
+    from collab_tools.orchestration.experiment import _matches
+    msg = SimpleNamespace(robot='burger_1', version=5, header=SimpleNamespace(frame_id='map'))
+    assert _matches(msg, {'robot': 'burger_1', 'header.frame_id': 'map'}, {'version': 5})
+    assert not _matches(msg, {'robot': 'burger_1'}, {'version': 6})
+    assert not _matches(msg, {'robot': 'burger_2'}, {'version': 1})

@@ -9,6 +9,10 @@
     after_start:                 # optional steps once every node is up
       - {wait_for_message: {topic: /clock, type: rosgraph_msgs/msg/Clock}}
       - {call: {service: /pybullet_bridge/pause, type: std_srvs/srv/SetBool, request: {data: false}}}
+      # a message whose fields equal / are at least the given values, then stop a node (by name):
+      # - {wait_for_message: {topic: /roles/channel, type: role_interfaces/msg/ProcessRole,
+      #                       equals: {robot: burger_1}, at_least: {version: 5}}}
+      # - {stop: role_player_burger_1}
     until:                       # one of:
       message: {topic: /scripted_driver/done, type: std_msgs/msg/Bool, latched: true, equals: {data: true}}
       # exit: node_name
@@ -86,14 +90,16 @@ def parse_node(entry, path: str) -> NodeSpec:
                     log_level=entry.get('log_level'), required=bool(entry.get('required', True)))
 
 
-def _matches(msg, expected: dict) -> bool:
-    for field, value in expected.items():
-        current = msg
-        for part in field.split('.'):
-            current = getattr(current, part)
-        if current != value:
-            return False
-    return True
+def _field(msg, dotted: str):
+    for part in dotted.split('.'):
+        msg = getattr(msg, part)
+    return msg
+
+
+def _matches(msg, expected: dict, at_least: dict | None = None) -> bool:
+    """Every field in ``expected`` equals its value and every field in ``at_least`` is >= its value."""
+    return (all(_field(msg, name) == value for name, value in expected.items())
+            and all(_field(msg, name) >= value for name, value in (at_least or {}).items()))
 
 
 def load_experiment(path: Path) -> dict:
@@ -167,8 +173,15 @@ def _run_step(session: Session, step, path: str) -> None:
     step = _require_mapping(step, path)
     if 'wait_for_message' in step:
         spec = step['wait_for_message']
+        expected, at_least = spec.get('equals', {}), spec.get('at_least', {})
         session.wait_for_message(spec['topic'], spec['type'], timeout=float(spec.get('timeout', 30)),
+                                 predicate=lambda msg: _matches(msg, expected, at_least),
                                  latched=bool(spec.get('latched', False)))
+    elif 'stop' in step:
+        name = str(step['stop'])
+        if name not in session.nodes:
+            raise ExperimentError(f"{path}.stop: no node named '{name}' (nodes: {', '.join(session.nodes)})")
+        session.stop(name)
     elif 'call' in step:
         from ..ros_interfaces import import_interface
         spec = step['call']
@@ -179,7 +192,7 @@ def _run_step(session: Session, step, path: str) -> None:
     elif 'sleep' in step:
         time.sleep(float(step['sleep']))
     else:
-        raise ExperimentError(f'{path}: expected one of wait_for_message, call, sleep')
+        raise ExperimentError(f'{path}: expected one of wait_for_message, call, stop, sleep')
 
 
 def _finished_as_awaited(until: dict, node) -> bool:
