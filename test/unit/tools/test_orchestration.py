@@ -3,11 +3,12 @@
 import signal
 import sys
 import time
+from types import SimpleNamespace
 
 import pytest
 
 from collab_tools.orchestration.domain import DomainUnavailableError, acquire_domain
-from collab_tools.orchestration.experiment import ExperimentError, _finished_as_awaited, load_experiment
+from collab_tools.orchestration.experiment import ExperimentError, _finished_as_awaited, _matches, load_experiment
 from collab_tools.orchestration.node_process import NodeProcess, NodeSpec
 
 IGNORES_SIGINT = ('import signal, time\n'
@@ -102,9 +103,6 @@ def test_only_the_awaited_node_exiting_cleanly_counts_as_completion(until, node,
 
 
 def test_message_conditions_compare_equal_and_at_least_fields():
-    from types import SimpleNamespace
-
-    from collab_tools.orchestration.experiment import _matches
     msg = SimpleNamespace(robot='burger_1', version=5, header=SimpleNamespace(frame_id='map'))
     assert _matches(msg, {'robot': 'burger_1', 'header.frame_id': 'map'}, {'version': 5})
     assert not _matches(msg, {'robot': 'burger_1'}, {'version': 6})
