@@ -55,6 +55,7 @@ Choices where the paper is silent (ours):
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Protocol, Sequence
 
@@ -63,7 +64,7 @@ from .coalition import LocalCoalitionSolution, RobotReasoner
 from .errors import RequestError
 from .information import InformationInstance
 from .live_sensing import LiveSensing
-from .requests import InformationOffer, InformationRequest, addressees, answers_request
+from .requests import InformationOffer, InformationRequest, addressees, answers_request, to_absolute
 from .channel_codec import OfferSummary
 from .schemas import Costs, SchemaKind, SchemaLibrary
 from .solution_space import COST_DIGITS, PotentialSolution, SolutionSpaceCache
@@ -141,10 +142,55 @@ def _answer_order(entry: Answer) -> tuple:
             tuple((offer.provider, str(offer.instance)) for offer in lcs.offers))
 
 
+def _offer_rank(offer: InformationOffer) -> tuple[float, str]:
+    """Which of two offers of one instance a reply uses (the cheapest, ties by provider)."""
+    return offer.cost, offer.provider
+
+
+def _cheapest_offer(offers: Iterable[tuple[InformationOffer, tuple[str, ...]]],
+                    instance: InformationInstance) -> InformationOffer | None:
+    matching = [offer for offer, _ in offers if offer.instance == instance]
+    return min(matching, key=_offer_rank) if matching else None
+
+
 def _better(entry: Answer, kept: Answer | None) -> bool:
     if kept is None or entry[0] < kept[0]:
         return True
     return entry[0] == kept[0] and _answer_order(entry) < _answer_order(kept)
+
+
+@dataclass
+class _Changes:
+    """What changed for a space's potential solutions since they were last instantiated."""
+
+    #: potential solutions with new offers (semi-naive update)
+    dirty: set[int] = field(default_factory=set)
+    #: potential solutions to instantiate completely (new, or their readings changed)
+    stale: set[int] = field(default_factory=set)
+    #: the new offers, per request label
+    new_offers: dict[InformationInstance, list[InformationOffer]] = field(default_factory=dict)
+    #: ids of offers no longer usable (see :meth:`SchemaAgent.on_offer`)
+    gone: set[int] = field(default_factory=set)
+
+    def take(self) -> '_Changes':
+        """These changes, leaving none."""
+        taken = _Changes(self.dirty, self.stale, self.new_offers, self.gone)
+        self.dirty, self.stale, self.new_offers, self.gone = set(), set(), {}, set()
+        return taken
+
+    def merge(self, earlier: '_Changes') -> None:
+        """Put back changes taken but not evaluated (they happened before the present ones)."""
+        self.dirty |= earlier.dirty
+        self.stale |= earlier.stale
+        self.gone |= earlier.gone
+        for label, offers in earlier.new_offers.items():
+            self.new_offers[label] = offers + self.new_offers.get(label, [])
+
+    def add_offer(self, index: int, offer: InformationOffer) -> None:
+        self.dirty.add(index)
+        offers = self.new_offers.setdefault(offer.request, [])
+        if not offers or offers[-1] is not offer:  # once per space, not per potential solution
+            offers.append(offer)
 
 
 @dataclass
@@ -157,12 +203,13 @@ class _ReplySpace:
     best: dict[InformationInstance, Answer] = field(default_factory=dict)
     #: per potential solution (index): answer -> its cheapest (offer cost, members, LCS)
     answers: dict[int, dict[InformationInstance, Answer]] = field(default_factory=dict)
-    #: potential solutions with new offers since their last instantiation (semi-naive update)
-    dirty: set[int] = field(default_factory=set)
-    #: potential solutions to instantiate completely (new, or their readings changed)
-    stale: set[int] = field(default_factory=set)
+    changes: _Changes = field(default_factory=_Changes)
     #: subscribers that have not been sent the current best answers yet
     unserved: bool = False
+
+    @property
+    def has_work(self) -> bool:
+        return bool(self.changes.dirty or self.changes.stale or self.unserved)
 
 
 @dataclass
@@ -171,8 +218,14 @@ class _RootSpace:
 
     solutions: list[PotentialSolution] = field(default_factory=list)
     found: dict[int, list[FeasibleCoalition]] = field(default_factory=dict)
-    dirty: set[int] = field(default_factory=set)
-    stale: set[int] = field(default_factory=set)
+    changes: _Changes = field(default_factory=_Changes)
+
+
+@dataclass(frozen=True, eq=False)
+class _ReceivedOffer(InformationOffer):
+    """An offer from the wire: the helper coalition's members instead of its solution."""
+
+    members: tuple[str, ...] = ()
 
 
 class SchemaAgent:
@@ -205,9 +258,8 @@ class SchemaAgent:
         #: request label / sensor -> (space, solution index) of every potential solution using it
         self._label_users: dict[InformationInstance, list[tuple[object, int]]] = {}
         self._sensor_users: dict[str, list[tuple[object, int]]] = {}
-        #: offers received since the reply spaces / the task's solutions were last evaluated
-        self._new_offers: dict[InformationInstance, list[InformationOffer]] = {}
-        self._new_root_offers: dict[InformationInstance, list[InformationOffer]] = {}
+        #: where the next budgeted :meth:`tick` starts in the reply spaces (round robin)
+        self._cursor = 0
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
         #: request label -> (provider, instance) -> (offer, members)
@@ -235,7 +287,7 @@ class SchemaAgent:
                 self._label_users.setdefault(label, []).append((space, index))
             for sensor in dict.fromkeys(sensor for sensor, _ in self.reasoner.sensing_needs(solution)):
                 self._sensor_users.setdefault(sensor, []).append((space, index))
-            space.stale.add(index)  # type: ignore[attr-defined]
+            space.changes.stale.add(index)  # type: ignore[attr-defined]
 
     def _unregister_root(self) -> None:
         for users in (*self._label_users.values(), *self._sensor_users.values()):
@@ -265,11 +317,9 @@ class SchemaAgent:
         self.reasoner.ledger.sent.clear()
         self._unregister_root()
         self._root = _RootSpace()
-        self._new_offers.clear()
-        self._new_root_offers.clear()
         for space in self.spaces.values():  # their offers are gone too
             space.answers.clear()
-            space.stale.update(range(len(space.solutions)))
+            space.changes = _Changes(stale=set(range(len(space.solutions))))
         self.start()
 
     # Serving requests --------------------------------------------------------------------------------
@@ -308,14 +358,20 @@ class SchemaAgent:
         kept = offers.get(key)
         if kept is not None and kept[0].cost <= offer.cost:
             return
-        received = InformationOffer(offer.provider, offer.request, offer.instance, None, offer.cost)  # type: ignore[arg-type]
+        received = _ReceivedOffer(offer.provider, offer.request, offer.instance, None, offer.cost,  # type: ignore[arg-type]
+                                  offer.members)
+        cheapest = _cheapest_offer(offers.values(), offer.instance)
         offers[key] = (received, offer.members)
-        self._new_offers.setdefault(offer.request, []).append(received)
-        self._new_root_offers.setdefault(offer.request, []).append(received)
+        # What is no longer usable: the task's solutions use every offer (the replaced one is
+        # gone); a reply uses the cheapest per instance (an undercut one is gone).
+        replaced = None if kept is None else id(kept[0])
+        undercut = id(cheapest) if cheapest is not None and _offer_rank(received) < _offer_rank(cheapest) else None
         for space, index in self._label_users.get(offer.request, ()):
-            # A new provider/instance only adds instantiations; a cheaper offer replacing one
-            # invalidates those built on the old one (their cost and members): instantiate again.
-            (space.dirty if kept is None else space.stale).add(index)  # type: ignore[attr-defined]
+            changes: _Changes = space.changes  # type: ignore[attr-defined]
+            changes.add_offer(index, received)
+            gone = replaced if space is self._root else undercut
+            if gone is not None:
+                changes.gone.add(gone)
 
     def observe(self, sensor: str, now: float, detected: Iterable[str] = ()) -> tuple[InformationInstance, ...]:
         """A report of ``sensor`` (``detected``: the entities a fiducial sees); the instances retrieved."""
@@ -328,8 +384,9 @@ class SchemaAgent:
     def _offer_view(self) -> dict[InformationInstance, list[InformationOffer]]:
         return {label: [offer for offer, _ in offers.values()] for label, offers in self.offers.items()}
 
-    def _members_of(self, lcs: LocalCoalitionSolution) -> list[tuple[str, ...]]:
-        return [self.offers[offer.request][(offer.provider, offer.instance)][1] for offer in lcs.offers]
+    @staticmethod
+    def _members_of(lcs: LocalCoalitionSolution) -> list[tuple[str, ...]]:
+        return [offer.members for offer in lcs.offers]  # type: ignore[attr-defined]
 
     def _refresh_readings(self, now: float) -> dict[str, tuple[InformationInstance, ...]]:
         """The current readings; potential solutions using a sensor whose readings changed since
@@ -337,54 +394,97 @@ class SchemaAgent:
         sensed = self.current_readings(now)
         if not self.incremental:
             for space in (*self.spaces.values(), self._root):
-                space.stale.update(range(len(space.solutions)))
+                space.changes.stale.update(range(len(space.solutions)))
             return sensed
         for sensor in set(sensed) | set(self._readings_used):
             readings = sensed.get(sensor, ())
             if self._readings_used.get(sensor, ()) != readings:
                 self._readings_used[sensor] = readings
                 for space, index in self._sensor_users.get(sensor, ()):
-                    space.stale.add(index)  # type: ignore[attr-defined]
+                    space.changes.stale.add(index)  # type: ignore[attr-defined]
         return sensed
 
     def pending(self) -> bool:
         """Whether a :meth:`tick` has work: self-requests, changed inputs or new subscribers."""
-        return bool(self._local) or any(space.dirty or space.stale or space.unserved for space in self.spaces.values())
+        return bool(self._local) or any(space.has_work for space in self.spaces.values())
 
-    def tick(self, now: float) -> None:
+    def tick(self, now: float, budget_s: float | None = None) -> bool:
         """Serve the self-requests, re-instantiate the reply spaces whose inputs changed and send
-        better offers."""
+        better offers. With ``budget_s``, stop after the reply space during which that much
+        time (s, this process's clock) has passed: the rest is evaluated at the next call
+        (round robin over the spaces), so a transport can deliver messages in between. Returns
+        whether work is left."""
+        started = time.perf_counter()
         while self._local:
             self.on_request(self._local.pop(0), SELF)
         sensed = self._refresh_readings(now)
-        work = [(space, sorted(space.stale), sorted(space.dirty - space.stale)) for space in self.spaces.values()
-                if space.dirty or space.stale or space.unserved]
-        new_offers, self._new_offers = self._new_offers, {}
+        spaces = list(self.spaces.values())
+        order = spaces[self._cursor:] + spaces[:self._cursor]
+        # Every space evaluated in this call sees the offers as they are now; what arrives
+        # meanwhile (offers this robot sends itself) is a change for the next call.
+        work = [(space, space.changes.take(), space.unserved) for space in order if space.has_work]
         for space, _, _ in work:
-            space.dirty, space.stale, space.unserved = set(), set(), False
-        offers = self._offer_view() if any(stale or dirty for _, stale, dirty in work) else {}
-        for space, stale, dirty in work:
-            for index in stale:
-                space.answers[index] = self._reply_answers(space.solutions[index], sensed, offers, None, {})
-            for index in dirty:
-                space.answers[index] = self._reply_answers(space.solutions[index], sensed, offers, new_offers,
-                                                           space.answers.get(index, {}))
-            if stale or dirty:
-                best: dict[InformationInstance, Answer] = {}
-                for answers in space.answers.values():
-                    for answer, entry in answers.items():
-                        if _better(entry, best.get(answer)):
-                            best[answer] = entry
-                space.best = best
+            space.unserved = False
+        offers = self._offer_view() if any(changes.dirty or changes.stale for _, changes, _ in work) else {}
+        for position, (space, changes, _) in enumerate(work):
+            if budget_s is not None and position > 0 and time.perf_counter() - started >= budget_s:
+                for left, taken, unserved in work[position:]:
+                    left.changes.merge(taken)
+                    left.unserved = left.unserved or unserved
+                self._cursor = spaces.index(space)
+                return True
+            self._evaluate(space, changes, sensed, offers)
             self._serve(space)
+        self._cursor = 0
+        return self.pending()
+
+    def _evaluate(self, space: _ReplySpace, changes: _Changes, sensed, offers) -> None:
+        stale = sorted(changes.stale)
+        dirty = sorted(changes.dirty - changes.stale)
+        for index in stale:
+            space.answers[index] = self._reply_answers(space.solutions[index], sensed, offers, None, {})
+        for index in dirty:
+            space.answers[index] = self._repaired_answers(space.solutions[index], sensed, offers, changes.new_offers,
+                                                          changes.gone, space.answers.get(index, {}))
+        if stale or dirty:
+            best: dict[InformationInstance, Answer] = {}
+            for answers in space.answers.values():
+                for answer, entry in answers.items():
+                    if _better(entry, best.get(answer)):
+                        best[answer] = entry
+            space.best = best
+
+    def _repaired_answers(self, solution: PotentialSolution, sensed, offers, new_offers, gone: set[int],
+                          answers: dict[InformationInstance, Answer]) -> dict[InformationInstance, Answer]:
+        """``answers`` of one reply potential solution after offers arrived (``new_offers``) and
+        others became unusable (``gone``): an answer whose cheapest way used a gone offer is
+        instantiated again on its own (the ways it lost to may be its cheapest now); every other
+        kept answer is still the cheapest way without the new offers, so only the
+        instantiations using a new offer are added. The result is that of instantiating
+        everything again."""
+        broken = [answer for answer, (_, _, lcs) in answers.items()
+                  if any(id(offer) in gone for offer in lcs.offers)]
+        for answer in broken:
+            del answers[answer]
+        for answer in sorted(broken, key=str):
+            self._reply_answers(solution, sensed, offers, None, answers, answer=answer)
+        return self._reply_answers(solution, sensed, offers, new_offers, answers)
 
     def _reply_answers(self, solution: PotentialSolution, sensed, offers, new_offers,
-                       answers: dict[InformationInstance, Answer]) -> dict[InformationInstance, Answer]:
+                       answers: dict[InformationInstance, Answer], *,
+                       answer: InformationInstance | None = None) -> dict[InformationInstance, Answer]:
         """answer -> the cheapest (offer cost, members, LCS) of one reply potential solution:
-        ``answers`` updated with the instantiations using ``new_offers`` (None: all of them)."""
+        ``answers`` updated with the instantiations using ``new_offers`` (None: all of them),
+        only those providing ``answer`` if given."""
         self.evaluations += 1
-        for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers, reply=True,
-                                                           cheapest_offers=True, new_offers=new_offers):
+        # A solution that provides one instance only: offers that alone cost more than its
+        # cheapest way so far cannot improve it (a coalition costs at least this robot's schemas
+        # plus any one offer's coalition; ties are kept, as they may win on the tie order).
+        only = self._only_answer(solution)
+        bound = None if new_offers is None or only not in answers else answers[only][0]
+        for lcs in self.reasoner.local_coalition_solutions(solution, sensed, offers, reply=True, answer=answer,
+                                                           cheapest_offers=True, new_offers=new_offers,
+                                                           at_most_cost=bound):
             answer = lcs.answer
             if answer is None:
                 continue
@@ -394,6 +494,13 @@ class SchemaAgent:
             if _better(entry, answers.get(answer)):
                 answers[answer] = entry
         return answers
+
+    def _only_answer(self, solution: PotentialSolution) -> InformationInstance | None:
+        """The instance a reply solution provides if it is fully instantiated (else None)."""
+        output = solution.root.output
+        if output is None or not output.is_fully_instantiated:
+            return None
+        return to_absolute(output, self.robot)
 
     def _serve(self, space: _ReplySpace) -> None:
         """Send each subscriber every answer it can now get more cheaply than before."""
@@ -418,22 +525,23 @@ class SchemaAgent:
         """The executable coalitions of the task now, in non-descending coalition cost."""
         sensed = self._refresh_readings(now)
         root = self._root
-        if root.dirty or root.stale:
+        changes = root.changes.take()
+        if changes.dirty or changes.stale:
             offers = self._offer_view()
-            new_offers, self._new_root_offers = self._new_root_offers, {}
-            for index in sorted(root.stale | root.dirty):
+            new_offers, gone = changes.new_offers, changes.gone
+            for index in sorted(changes.stale | changes.dirty):
                 self.evaluations += 1
-                full = index in root.stale
-                found = [] if full else root.found.get(index, [])
+                full = index in changes.stale
+                # Every coalition is kept here: drop those built on a replaced offer, add those
+                # using a new one.
+                found = [] if full else [coalition for coalition in root.found.get(index, [])
+                                         if not any(id(offer) in gone for offer in coalition.lcs.offers)]
                 for lcs in self.reasoner.local_coalition_solutions(root.solutions[index], sensed, offers,
                                                                    new_offers=None if full else new_offers):
                     cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
                                                                self.helper_motor_schema_cost, root_is_helped=True)
                     found.append(FeasibleCoalition(lcs, members, cost))
                 root.found[index] = found
-            root.dirty, root.stale = set(), set()
-        else:
-            self._new_root_offers.clear()
         found = [coalition for index in sorted(root.found) for coalition in root.found[index]
                  if not self.excluded.intersection(coalition.members)]
         found.sort(key=lambda c: (c.cost, c.potential_solution.rank, c.members, tuple(c.lcs.step_lines())))

@@ -325,7 +325,8 @@ class RobotReasoner:
             offers: Mapping[InformationInstance, Iterable[InformationOffer]], *, reply: bool = False,
             cheapest_offers: bool = False, limit: int | None = None,
             new_offers: Mapping[InformationInstance, Iterable[InformationOffer]] | None = None,
-            below_cost: float | None = None,
+            below_cost: float | None = None, at_most_cost: float | None = None,
+            answer: InformationInstance | None = None,
     ) -> Iterator[LocalCoalitionSolution]:
         """Every instantiation of ``solution`` by the sensed instances (per sensor, absolute) and
         the offers received (per request label) that satisfies the referent instantiation
@@ -336,7 +337,9 @@ class RobotReasoner:
         the instantiations that use at least one of them are produced, each once -- the
         semi-naive way to update a robot's solutions as offers arrive. With ``below_cost``,
         offers that alone would bring the coalition to that cost or more are not tried (a
-        coalition costs at least this robot's schemas plus any one offer's coalition)."""
+        coalition costs at least this robot's schemas plus any one offer's coalition);
+        ``at_most_cost`` does the same keeping ties. With ``answer`` (a reply), only the
+        instantiations providing that instance are produced."""
         local_cost = round(solution.cost - (self.costs.cs if reply else 0.0), COST_DIGITS)
         compiled = self.compiled(solution)
         slots = []
@@ -353,6 +356,9 @@ class RobotReasoner:
                 matching = list(offers.get(requested, ()))
                 if below_cost is not None:
                     matching = [offer for offer in matching if local_cost + offer.cost < below_cost]
+                if at_most_cost is not None:
+                    matching = [offer for offer in matching
+                                if round(local_cost + offer.cost, COST_DIGITS) <= at_most_cost]
                 if cheapest_offers:
                     best: dict[InformationInstance, InformationOffer] = {}
                     for offer in matching:
@@ -368,7 +374,14 @@ class RobotReasoner:
             fresh = {id(offer) for label_offers in new_offers.values() for offer in label_offers}
             yield from self._delta_join(solution, slots, fresh, reply, limit)
             return
-        yield from self._join(solution, slots, reply, limit)
+        start: dict[Variable, Entity] = {}
+        if answer is not None:
+            root = solution.root.output
+            bound = None if root is None else bind_to_ground(to_absolute(root, self.robot), answer, {})
+            if bound is None:
+                return  # this solution never provides ``answer``
+            start = bound
+        yield from self._join(solution, slots, reply, limit, start)
 
     def _delta_join(self, solution: PotentialSolution, slots: list, fresh: set[int], reply: bool,
                     limit: int | None) -> Iterator[LocalCoalitionSolution]:
@@ -397,8 +410,8 @@ class RobotReasoner:
                 if limit is not None and produced >= limit:
                     return
 
-    def _join(self, solution: PotentialSolution, slots: list, reply: bool,
-              limit: int | None) -> Iterator[LocalCoalitionSolution]:
+    def _join(self, solution: PotentialSolution, slots: list, reply: bool, limit: int | None,
+              start: Mapping[Variable, Entity] | None = None) -> Iterator[LocalCoalitionSolution]:
         compiled = self.compiled(solution)
         # Hash join: candidates indexed by the entity at each variable position; the leaf with
         # the fewest candidates consistent with the current binding is extended next.
@@ -454,7 +467,7 @@ class RobotReasoner:
                 yield from search(rest, extended)
 
         produced = 0
-        for lcs in search(tuple(range(len(slots))), {}):
+        for lcs in search(tuple(range(len(slots))), dict(start or {})):
             yield lcs
             produced += 1
             if limit is not None and produced >= limit:
