@@ -3,12 +3,16 @@ everything on every tick, and no work when nothing changed."""
 from __future__ import annotations
 
 import collections
+import random
 
 import pytest
 
 from coalition_agents.core import load_capability_file
 from coalition_agents.core.agent import SchemaAgent
 from coalition_agents.core.capabilities import capability_file_from_dict
+from coalition_agents.core.channel_codec import OfferSummary
+from coalition_agents.core.errors import InformationError
+from coalition_agents.core.requests import InformationRequest, answers_request
 from coalition_agents.core.sim_scenarios import COLUMN_TYPES, capability_file, column_placements
 
 
@@ -127,6 +131,52 @@ def test_incremental_evaluation_sends_the_same_offers_and_finds_the_same_coaliti
     assert work(fast) < work(full) / 5
 
 
+def run_to_quiet(wire, robots, budget_s):
+    """Sense, start the back robot and deliver messages until none is left; each tick limited
+    to ``budget_s`` (0: one reply space per call) and repeated while it reports work left."""
+    sense(wire, robots, 0.0)
+    wire.agents[f'robot_{robots}'].start()
+    calls = 0
+    while True:
+        for agent in wire.agents.values():
+            calls += 1
+            while agent.tick(0.0, budget_s=budget_s):
+                calls += 1
+        if not wire.queue:
+            return calls
+        while wire.queue:
+            kind, recipient, payload, sender = wire.queue.popleft()
+            if kind == 'request':
+                wire.agents[recipient].on_request(payload, sender)
+            else:
+                wire.agents[recipient].on_offer(payload)
+
+
+def test_answers_built_on_a_replaced_offer_are_repaired_as_a_full_evaluation_would(library, costs, tasks):
+    """Every robot sees its neighbour from the start, so cheaper offers overtake dearer ones
+    that answers were already built on (an offer replaced by its provider, or undercut by
+    another provider's for the same instance)."""
+    full = column(library, costs, tasks, 4, incremental=False)
+    fast = column(library, costs, tasks, 4, incremental=True)
+    run_to_quiet(full, 4, None)
+    run_to_quiet(fast, 4, None)
+    assert sum(agent.repaired_answers for agent in fast.agents.values()) > 0
+    assert fast.offers == full.offers
+    assert snapshot(fast, 0.0) == snapshot(full, 0.0)
+
+
+def test_ticks_with_a_time_budget_reach_the_same_answers_and_coalitions(library, costs, tasks):
+    whole = column(library, costs, tasks, 5, incremental=True)
+    sliced = column(library, costs, tasks, 5, incremental=True)
+    whole_calls = run_to_quiet(whole, 5, None)
+    sliced_calls = run_to_quiet(sliced, 5, 0.0)
+    assert sliced_calls > 3 * whole_calls                  # the work was really cut into slices
+    assert snapshot(sliced, 0.0) == snapshot(whole, 0.0)
+    best = sliced.agents['robot_5'].coalitions(0.0)[0]
+    assert best.members == ('robot_5', 'robot_1', 'robot_2', 'robot_3', 'robot_4')
+    assert not any(agent.pending() for agent in sliced.agents.values())
+
+
 def settled_column(library, costs, tasks):
     """A 3-robot column whose back robot has searched until no message is left in flight."""
     wire = column(library, costs, tasks, 3, incremental=True)
@@ -178,3 +228,92 @@ def test_a_changed_reading_reevaluates_only_what_uses_that_sensor(library, costs
     assert back.evaluations - before == len(uses_fiducial)  # only the solutions using the fiducial
     assert len(blind) < len(seeing)
     assert not any('EPS fiducial' in line for coalition in blind for line in coalition.lcs.step_lines())
+
+
+class Silent:
+    """An outbox that only records the offers an agent sends."""
+
+    def __init__(self):
+        self.offers = []
+
+    def set_sensor(self, sensor, active):
+        pass
+
+    def send_request(self, request, recipients):
+        pass
+
+    def send_offer(self, offer, reply_to):
+        self.offers.append((reply_to, str(offer.request), str(offer.instance), offer.cost, offer.members))
+
+
+def random_offers(agent, library, team, rng, count):
+    """``count`` offers for the labels ``agent`` requested, from random providers with random
+    members and costs; about a third replace an earlier offer of the same provider and
+    instance with a cheaper one."""
+    robots = [robot for robot in team if robot != agent.robot]
+    labels = list(agent.reasoner.ledger.sent)
+    sent = []
+    offers = []
+    while len(offers) < count:
+        if sent and rng.random() < 0.35:
+            provider, label, instance, cost, members = sent[rng.randrange(len(sent))]
+            cost = round(cost - rng.choice((0.5, 2.0, 6.0)), 1)  # cheaper, maybe other members
+            members = (provider, *rng.sample([r for r in robots if r != provider], rng.randrange(0, 4)))
+        else:
+            label = rng.choice(labels)
+            text = str(label)
+            for variable in label.variables:
+                text = text.replace(variable.name, rng.choice(team))
+            try:
+                instance = library.parse(text, team)
+            except InformationError:
+                continue  # a robot drawn twice
+            if not answers_request(instance, label):
+                continue
+            provider = rng.choice(robots)
+            members = (provider, *rng.sample([r for r in robots if r != provider], rng.randrange(0, 4)))
+            cost = round(4.0 * len(members) + rng.uniform(1.0, 30.0), 1)
+        if cost <= 4.0 * len(members):
+            continue
+        sent.append((provider, label, instance, cost, members))
+        offers.append(OfferSummary(provider, label, instance, cost, members))
+    return offers
+
+
+@pytest.mark.parametrize('seed', range(12))
+def test_random_offer_sequences_give_the_answers_of_a_full_evaluation(library, costs, tasks, seed):
+    """A middle robot of a 5-robot column serves the back robot while offers arrive in random
+    order, cheaper ones replacing dearer ones (whose members may make the composed coalition
+    dearer: the answer may then come another way). After every tick the incremental agent's
+    answers (per potential solution) and the offers it sent equal those of re-instantiating
+    everything."""
+    rng = random.Random(seed)
+    team_caps = dict(capability_file_from_dict(capability_file(column_placements(5), COLUMN_TYPES), library).robots)
+    team = list(team_caps)
+    agents = {}
+    for incremental in (True, False):
+        outbox = Silent()
+        agent = SchemaAgent('robot_3', team_caps, library, costs, None, outbox, team_task=tasks['navigation'],
+                            incremental=incremental)
+        for text in ('F_G(X)', 'F_R(robot_5, X)', 'F_R(X, robot_5)', 'F_R(X, Y)'):
+            agent.on_request(InformationRequest('robot_5', library.parse(text, team)), 'robot_5')
+        agent.observe('fiducial', 0.0, ['robot_2'])
+        agent.observe('laser', 0.0)
+        agent.tick(0.0)
+        agents[incremental] = (agent, outbox)
+    fast, full = agents[True][0], agents[False][0]
+    offers = random_offers(fast, library, team, rng, 60)
+    for step, offer in enumerate(offers):
+        for agent in (fast, full):
+            agent.on_offer(offer)
+        if step % 3 == 2:
+            for agent in (fast, full):
+                agent.tick(0.0)
+            # per potential solution, not only the best of each space: another solution's
+            # equal answer must not hide a wrong one
+            answers = [{(str(v), index): {str(a): (c, m) for a, (c, m, _) in found.items()}
+                        for v, space in agent.spaces.items() for index, found in space.answers.items()}
+                       for agent in (fast, full)]
+            assert answers[0] == answers[1], f'step {step}'
+    assert agents[True][1].offers == agents[False][1].offers
+    assert fast.evaluations < full.evaluations

@@ -253,6 +253,8 @@ class SchemaAgent:
         self.incremental = incremental
         #: instantiations of a potential solution done so far (the reasoning work)
         self.evaluations = 0
+        #: answers instantiated again because an offer their cheapest way used was gone
+        self.repaired_answers = 0
         #: sensor -> the readings the cached answers were computed with
         self._readings_used: dict[str, tuple[InformationInstance, ...]] = {}
         #: request label / sensor -> (space, solution index) of every potential solution using it
@@ -466,6 +468,7 @@ class SchemaAgent:
                   if any(id(offer) in gone for offer in lcs.offers)]
         for answer in broken:
             del answers[answer]
+        self.repaired_answers += len(broken)
         for answer in sorted(broken, key=str):
             self._reply_answers(solution, sensed, offers, None, answers, answer=answer)
         return self._reply_answers(solution, sensed, offers, new_offers, answers)
