@@ -28,7 +28,8 @@ logged and dropped alone, the others are processed), run through the
 :class:`~.core.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
 ACKs, commitment answers) and handed to ``on_message``: negotiation messages at once, requests,
 offers and streamed values in slices of at most ``work_slice_s`` of the agent's processing
-(a guard condition), so the inbox is drained -- and every message acknowledged -- without
+(steps of a :class:`~.core.cooperative_work.CooperativeWork` queue: the channel's own, or the one
+a schema_agent_host shares between its agents), so the inbox is drained -- and every message acknowledged -- without
 waiting for the agent's reasoning, and a COMMIT_REQUEST is never queued behind it. The channel
 never raises from a ROS callback.
 
@@ -62,6 +63,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
 from .core.batching import Batch, InboxQueue, Outbox, decode_batch
+from .core.cooperative_work import CooperativeWork
 from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
 from .core.errors import CoalitionError
 from .core.link_model import LinkModel
@@ -170,7 +172,8 @@ class AgentChannel:
                  team: Sequence[str], on_message: Callable[[ChannelMessage, Received], None],
                  on_undelivered: Callable[[Undelivered], None] | None = None,
                  policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01,
-                 ack_delay_s: float | None = None, work_slice_s: float = 0.005, drain_slice_s: float = 0.01):
+                 ack_delay_s: float | None = None, work_slice_s: float = 0.005, drain_slice_s: float = 0.01,
+                 work: CooperativeWork | None = None):
         if robot not in codec.catalog.robots:
             raise CoalitionError(f"robot: {robot!r} is not in the codec's team ({', '.join(codec.robots)})")
         unknown = [name for name in team if name not in codec.catalog.robots]
@@ -196,7 +199,6 @@ class AgentChannel:
         self._flush_scheduled = False
         #: received messages (already acknowledged) waiting for the agent, negotiation messages first
         self._deferred: InboxQueue[Received] = InboxQueue()
-        self._work_scheduled = False
         self.work_slice_s = work_slice_s
         self.drain_slice_s = drain_slice_s
         # Deep enough for the burst of a whole search: a full KEEP_LAST queue silently replaces unread messages.
@@ -214,7 +216,11 @@ class AgentChannel:
         self.inbox = subscribe(AgentMessageBatch, inbox_topic(robot, topic), self._on_batch)
         self.retry_timer = node.create_timer(tick_s, self._on_tick)
         self.flush_trigger = node.create_guard_condition(self._on_flush)
-        self.work_trigger = node.create_guard_condition(self._on_work)
+        self.work_trigger = None
+        if work is None:  # a channel of its own; a host shares one between its agents
+            self.work_trigger = node.create_guard_condition(lambda: self.work.run())
+            work = CooperativeWork(self.work_trigger.trigger, work_slice_s, self._step_failed)
+        self.work = work
 
     # --- time ----------------------------------------------------------------------------------
     def now(self) -> float:
@@ -378,26 +384,27 @@ class AgentChannel:
         self._deferred.put(received.deliver, received)
         if deliver_urgent:
             self._deliver_urgent()
-        if self._deferred and not self._work_scheduled:
-            self._work_scheduled = True
-            self.work_trigger.trigger()
+        if self._deferred:
+            self.work.request(self._deliver_deferred)
 
     def _deliver_urgent(self) -> None:
         while (entry := self._deferred.pop_urgent()) is not None:
             self._deliver(*entry)
 
-    def _on_work(self) -> None:
-        """Deliver deferred messages for at most ``work_slice_s`` (wall), then let the executor
-        run the other callbacks (inboxes, timers) before the next slice."""
-        self._work_scheduled = False
+    def _deliver_deferred(self) -> bool:
+        """A step of :attr:`work`: deliver deferred messages for at most ``work_slice_s`` (wall);
+        True if some are left (the executor runs the other callbacks -- inboxes, timers --
+        before the next step)."""
         end = time.perf_counter() + self.work_slice_s
         while (entry := self._deferred.pop()) is not None:
             self._deliver(*entry)
             if time.perf_counter() >= end:
                 break
-        if self._deferred:
-            self._work_scheduled = True
-            self.work_trigger.trigger()
+        return bool(self._deferred)
+
+    def _step_failed(self, step, exc: Exception) -> None:
+        self.node.get_logger().error(f'{self.robot}: {getattr(step, "__name__", step)} failed: '
+                                     f'{type(exc).__name__}: {exc}')
 
     def _deliver(self, message: ChannelMessage, received: Received) -> None:
         try:
@@ -431,7 +438,8 @@ class AgentChannel:
         self._delayed.clear()
         self.node.destroy_timer(self.retry_timer)
         self.node.destroy_guard_condition(self.flush_trigger)
-        self.node.destroy_guard_condition(self.work_trigger)
+        if self.work_trigger is not None:
+            self.node.destroy_guard_condition(self.work_trigger)
         self._deferred.clear()
         self.node.destroy_subscription(self.subscription)
         self.node.destroy_subscription(self.inbox)

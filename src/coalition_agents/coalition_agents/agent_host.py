@@ -14,6 +14,12 @@ executor: under the GIL threads add no parallelism, and the multi-threaded execu
 overhead (futures, thread hand-over) made the agents fall behind a burst of channel messages;
 ``multi`` -- a multi-threaded executor with one thread per agent.
 
+With the single-threaded executor the agents' deferred work -- their reasoning slices and the
+channel messages waiting for them -- runs through ONE :class:`~.core.cooperative_work.CooperativeWork`
+queue, ``work_slice`` (wall s) per executor cycle, round robin: every cycle still serves all
+inboxes, timers and sensor reports, so a COMMIT_REQUEST or an ACK waits for at most one short
+cycle instead of every agent's reasoning.
+
 Parameters:
 
 * ``robots`` (string array, required): the robots to host; agent ``<robot>`` becomes the node
@@ -28,6 +34,8 @@ Parameters:
 * ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
   per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
   of equal capabilities reuse each other's generated spaces instead of generating them again.
+* ``executor`` (``single`` | ``multi``, default single) and ``work_slice`` (wall s, default 0.01):
+  see above.
 * ``linger`` (s, default 1.0): once every hosted agent with ``exit_when_done`` is done, keep
   spinning this long (wall clock) so the last messages reach the recorder, then exit 0. Without
   any such agent the host spins until shutdown.
@@ -47,6 +55,7 @@ from rclpy.node import Node
 
 from collab_tools.node_support import ConfigurationError, declare as declare_parameter
 
+from .core.cooperative_work import CooperativeWork
 from .schema_agent_node import SchemaAgentNode
 
 
@@ -63,14 +72,14 @@ class _NodeOptions(Node):
 
 
 def hosted_agent(node_name: str, robot: str, parameter_file: Path, use_sim_time: bool, context=None,
-                 solution_caches: dict | None = None) -> SchemaAgentNode:
+                 solution_caches: dict | None = None, work: CooperativeWork | None = None) -> SchemaAgentNode:
     """A SchemaAgentNode named ``node_name`` reading its parameters from ``parameter_file``
-    (``solution_caches``: shared between the hosted agents, see SchemaAgentNode)."""
+    (``solution_caches``, ``work``: shared between the hosted agents, see SchemaAgentNode)."""
     arguments = ['--ros-args', '-r', f'__node:={node_name}', '--params-file', str(parameter_file),
                  '-p', f'robot:={robot}', '-p', f'use_sim_time:={"true" if use_sim_time else "false"}']
     node_class = type(f'HostedSchemaAgent_{robot}', (SchemaAgentNode, _NodeOptions),
                       {'node_arguments': arguments, 'node_context': context,
-                       'shared_solution_caches': solution_caches})
+                       'shared_solution_caches': solution_caches, 'shared_work': work})
     return node_class()
 
 
@@ -85,6 +94,8 @@ class AgentHost(Node):
                 ('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag '
                                            'recorder) before the agents start; 0 = do not wait'),
                 ('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)"),
+                ('work_slice', 0.01, 'wall s, > 0: how long the agents\' shared deferred work (reasoning, '
+                                     'channel messages for the agents) runs per executor cycle (executor single)'),
                 ('share_solution_spaces', True, 'one solution-space cache for the hosted agents (robots of equal '
                                                 'capabilities reuse generated spaces)')):
             declare_parameter(self, name, default, description)
@@ -106,6 +117,13 @@ class AgentHost(Node):
         self.executor_kind = self.get_parameter('executor').value
         if self.executor_kind not in ('single', 'multi'):
             raise ConfigurationError(f"parameter executor: must be 'single' or 'multi' (got {self.executor_kind!r})")
+        work_slice = self.get_parameter('work_slice').value
+        if isinstance(work_slice, bool) or not isinstance(work_slice, (int, float)) or not work_slice > 0:
+            raise ConfigurationError(f'parameter work_slice: must be a number > 0 (got {work_slice!r})')
+        self.work: CooperativeWork | None = None
+        if self.executor_kind == 'single':  # threads: each agent keeps its own queue
+            trigger = self.create_guard_condition(lambda: self.work.run())
+            self.work = CooperativeWork(trigger.trigger, float(work_slice), self._step_failed)
         self.agents: list[SchemaAgentNode] = []
         self.share_solution_spaces = bool(self.get_parameter('share_solution_spaces').value)
 
@@ -137,12 +155,16 @@ class AgentHost(Node):
         caches: dict | None = {} if self.share_solution_spaces else None
         for robot in self.robots:
             try:
-                self.agents.append(hosted_agent(f'{prefix}{robot}', robot, path, use_sim_time, solution_caches=caches))
+                self.agents.append(hosted_agent(f'{prefix}{robot}', robot, path, use_sim_time, solution_caches=caches,
+                                                work=self.work))
             except ConfigurationError as error:
                 self.destroy_agents()
                 raise ConfigurationError(f'agent {prefix}{robot}: {error}') from None
         self.get_logger().info(f'hosting {len(self.agents)} schema_agent nodes: '
                                + ', '.join(a.get_name() for a in self.agents))
+
+    def _step_failed(self, step, exc: Exception) -> None:
+        self.get_logger().error(f'{getattr(step, "__qualname__", step)} failed: {type(exc).__name__}: {exc}')
 
     def finishing(self) -> list[SchemaAgentNode]:
         return [agent for agent in self.agents if agent.exit_when_done]

@@ -17,8 +17,11 @@ Life cycle (sim time, ``use_sim_time``): once every teammate's agent listens on 
 after ``team_wait``) a robot with a task starts the search. The agent is event-driven: a channel
 message (request, offer) wakes it through a guard condition, so it re-instantiates what the
 messages changed and sends better offers as soon as the executor has delivered the messages
-ready now (several at once); the ``tick_period`` timer catches changes of the sensor readings and
-the deadlines. It negotiates its least-cost coalition (the cheapest per set of members, in
+ready now (several at once), in slices of ``reasoning_slice`` wall seconds (steps of a
+:class:`~.core.cooperative_work.CooperativeWork` queue, shared by the agents of a
+schema_agent_host) so that its inbox, timers and sensor reports -- and those of the other hosted
+agents -- are served in between; the ``tick_period`` timer catches changes of the sensor readings
+and the deadlines. It negotiates its least-cost coalition (the cheapest per set of members, in
 non-descending cost: if one helper refuses or cannot be reached, the next) once it has an
 executable coalition whose cost has not improved for ``settle_time`` (no cheaper coalition came
 from the offers since), or at ``search_time`` at the latest (``settle_time`` >= ``search_time``:
@@ -87,6 +90,7 @@ from .core.agent import FeasibleCoalition, SchemaAgent
 from .core.capabilities import load_capability_file
 from .core.channel_codec import ChannelCodec, ChannelMessage, MessageKind, offer_message, request_message
 from .core.coalition_execution import CoalitionExecution
+from .core.cooperative_work import CooperativeWork
 from .core.errors import CoalitionError
 from .core.information import Entity, InformationInstance
 from .core.information_stream import InformationStream
@@ -114,6 +118,9 @@ class SchemaAgentNode(Node):
     #: each other's generated, memoised sub-trees (the reasoning is deterministic, so sharing it
     #: changes no result, only the CPU time of the process).
     shared_solution_caches: dict | None = None
+    #: Set by schema_agent_host: the hosted agents' deferred work (reasoning slices, channel
+    #: messages waiting for the agent) runs through one queue (None: each agent its own).
+    shared_work: CooperativeWork | None = None
 
     def __init__(self):
         super().__init__('schema_agent')
@@ -145,6 +152,9 @@ class SchemaAgentNode(Node):
                 ('hold_seconds', 0.0, 'commitment hold time sent to helpers, s; 0 = until released'),
                 ('reading_timeout', 1.0, 'sim s a sensor report stays current, > 0'),
                 ('tick_period', 0.1, 'sim s between re-evaluations, > 0'),
+                ('reasoning_slice', 0.01, 'wall s of reasoning per callback, > 0: the rest continues in the next '
+                                          'one, so channel messages, sensor reports and timers (of every agent '
+                                          'in the process) run in between'),
                 ('team_wait', 10.0, 'sim s to wait for every teammate on the channel before searching, > 0'),
                 ('stream_rate', 5.0, 'Hz (sim) at which a helper streams the information it serves, > 0'),
                 ('stream_timeout', 1.0, 'sim s after which a streamed value is stale, > 0'),
@@ -199,6 +209,7 @@ class SchemaAgentNode(Node):
         self.hold_seconds = self._number(p, 'hold_seconds', 0.0, 'a number >= 0')
         reading_timeout = self._positive(p, 'reading_timeout')
         tick_period = self._positive(p, 'tick_period')
+        self.reasoning_slice = self._positive(p, 'reasoning_slice')
         self.team_wait = self._positive(p, 'team_wait')
         self.exit_when_done = bool(p('exit_when_done'))
         self.stream_period = 1.0 / self._positive(p, 'stream_rate')
@@ -245,8 +256,12 @@ class SchemaAgentNode(Node):
                                                                                      'y': float(goal[1])},
                        InformationInstance('F_M'): {}}
         codec = ChannelCodec.for_team(library, self.team)
+        self.work = self.shared_work
+        if self.work is None:
+            trigger = self.create_guard_condition(lambda: self.work.run())
+            self.work = CooperativeWork(trigger.trigger, 2 * self.reasoning_slice, self._step_failed)
         self.channel = AgentChannel(self, self.robot, codec, link, team=self.team, on_message=self._on_message,
-                                    policy=retry)
+                                    policy=retry, work=self.work)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.status_pub = self.create_publisher(AgentStatus, f'/{self.robot}/coalition', latched)
@@ -292,9 +307,6 @@ class SchemaAgentNode(Node):
         self._best_cost: float | None = None
         self._best_since: float | None = None
         self.create_timer(tick_period, self._tick)
-        # Event-driven evaluation: channel messages trigger this; the executor runs it after the
-        # messages ready now, so one evaluation covers a burst of offers.
-        self._wake = self.create_guard_condition(self._on_wake)
         self._publish_status()
         self.get_logger().info(f"{self.robot}: task {task_name}, team {', '.join(self.team)}, link {link!r}, "
                                f'search {self.search_time:g} s, settle {self.settle_time:g} s')
@@ -399,10 +411,10 @@ class SchemaAgentNode(Node):
                         self.state = 'helping'
                         self._publish_status()
                 self.agent.on_request(message.request, message)
-                self._wake.trigger()
+                self.work.request(self._reason_step)
             elif message.kind is MessageKind.OFFER:
                 self.agent.on_offer(message.offer)
-                self._wake.trigger()
+                self.work.request(self._reason_step)
             elif message.kind is MessageKind.INFORMATION:
                 if (self.commitment is not None and message.coalition_id == self.commitment[0]
                         and message.sender in self.commitment[2]):  # only the coalition's members
@@ -419,6 +431,9 @@ class SchemaAgentNode(Node):
                 self.get_logger().info(f'{self.robot}: committed to coalition {message.coalition_id} of '
                                        f"{message.sender} ({', '.join(message.members)}, cost {message.cost:g})")
                 self._publish_status()
+            elif message.kind in (MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT):
+                if self.state == 'negotiating':
+                    self._lead(now)  # the negotiation may be decided: do not wait for the tick
             elif message.kind is MessageKind.RELEASE and self.commitment and self.commitment[0] == message.coalition_id:
                 self.get_logger().info(f'{self.robot}: released from coalition {message.coalition_id}')
                 self.commitment = None
@@ -433,14 +448,19 @@ class SchemaAgentNode(Node):
             self.get_logger().warning(f'{self.robot}: dropped {message}: {exc}')
 
     # --- the search ----------------------------------------------------------------------------------
-    def _on_wake(self) -> None:
-        """Channel messages changed the agent's inputs: evaluate now (see the module docstring)."""
+    def _reason_step(self) -> bool:
+        """The agent's inputs changed: evaluate (see the module docstring), one
+        ``reasoning_slice`` per step of :attr:`work`; True while work is left."""
         if self.started_at is None:
-            return  # the periodic tick starts the search
+            return False  # the periodic tick starts the search
         now = self._now()
-        self.agent.tick(now)
-        if self.agent.task is not None and self.state == 'searching':
+        more = self.agent.tick(now, budget_s=self.reasoning_slice)
+        if self.agent.task is not None and self.state in ('searching', 'negotiating'):
             self._lead(now)
+        return more
+
+    def _step_failed(self, step, exc: Exception) -> None:
+        self.get_logger().error(f'{self.robot}: {getattr(step, "__name__", step)} failed: {type(exc).__name__}: {exc}')
 
     def _tick(self) -> None:
         now = self._now()
@@ -464,7 +484,7 @@ class SchemaAgentNode(Node):
                 self.state = 'searching'
                 self.agent.start()
                 self._publish_status()
-        self.agent.tick(now)
+        self.work.request(self._reason_step)  # readings and deadlines change with time
         if self.agent.task is not None:
             self._lead(now)
             if self.state == 'committed' and self.execution is not None:
