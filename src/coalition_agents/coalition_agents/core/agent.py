@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Iterable, Mapping, Protocol, Sequence
 
 from .capabilities import RobotCapabilities
@@ -99,6 +100,11 @@ class FeasibleCoalition:
     lcs: LocalCoalitionSolution
     members: tuple[str, ...]
     cost: float
+
+    @cached_property
+    def order(self) -> tuple:
+        """Sort key: cost, then the potential solution's rank, the members and the schemas."""
+        return self.cost, self.potential_solution.rank, self.members, tuple(self.lcs.step_lines())
 
     @property
     def potential_solution(self) -> PotentialSolution:
@@ -206,6 +212,10 @@ class _ReplySpace:
     changes: _Changes = field(default_factory=_Changes)
     #: subscribers that have not been sent the current best answers yet
     unserved: bool = False
+    #: answers whose cost changed since the subscribers were last served
+    changed: set[InformationInstance] = field(default_factory=set)
+    #: how many subscribers (the first ones) were served every answer
+    served: int = 0
 
     @property
     def has_work(self) -> bool:
@@ -219,6 +229,8 @@ class _RootSpace:
     solutions: list[PotentialSolution] = field(default_factory=list)
     found: dict[int, list[FeasibleCoalition]] = field(default_factory=dict)
     changes: _Changes = field(default_factory=_Changes)
+    #: every found coalition without an excluded robot, sorted (None: to be sorted again)
+    ordered: list[FeasibleCoalition] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -262,6 +274,7 @@ class SchemaAgent:
         self._sensor_users: dict[str, list[tuple[object, int]]] = {}
         #: where the next budgeted :meth:`tick` starts in the reply spaces (round robin)
         self._cursor = 0
+        self._answering: dict[tuple[InformationInstance, InformationInstance], bool] = {}
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
         #: request label -> (provider, instance) -> (offer, members)
@@ -454,6 +467,9 @@ class SchemaAgent:
                 for answer, entry in answers.items():
                     if _better(entry, best.get(answer)):
                         best[answer] = entry
+            old = space.best
+            space.changed.update(answer for answer, entry in best.items()
+                                 if answer not in old or old[answer][0] != entry[0])
             space.best = best
 
     def _repaired_answers(self, solution: PotentialSolution, sensed, offers, new_offers, gone: set[int],
@@ -506,11 +522,18 @@ class SchemaAgent:
         return to_absolute(output, self.robot)
 
     def _serve(self, space: _ReplySpace) -> None:
-        """Send each subscriber every answer it can now get more cheaply than before."""
+        """Send each subscriber every answer it can now get more cheaply than before: a new
+        subscriber every answer, the others the answers whose cost changed since the last time
+        (the others it was sent at their present cost already)."""
         best = space.best
+        if not space.changed and space.served == len(space.subscribers):
+            return
+        everything = sorted(best, key=str) if space.served < len(space.subscribers) else []
+        changed = sorted(space.changed, key=str)
+        space.changed = set()
         for position, (request, reply_to) in enumerate(space.subscribers):
-            for answer in sorted(best, key=str):
-                if not answers_request(answer, request.label):
+            for answer in (changed if position < space.served else everything):
+                if not self._answers(answer, request.label):
                     continue
                 cost, members, _ = best[answer]
                 previous = space.sent.get((position, answer))
@@ -523,6 +546,15 @@ class SchemaAgent:
                     self.on_offer(summary)
                 else:
                     self.outbox.send_offer(summary, reply_to)
+        space.served = len(space.subscribers)
+
+    def _answers(self, answer: InformationInstance, label: InformationInstance) -> bool:
+        """:func:`~.requests.answers_request`, remembered (the same pairs come up at every serve)."""
+        key = (answer, label)
+        known = self._answering.get(key)
+        if known is None:
+            known = self._answering[key] = answers_request(answer, label)
+        return known
 
     def coalitions(self, now: float) -> list[FeasibleCoalition]:
         """The executable coalitions of the task now, in non-descending coalition cost."""
@@ -545,10 +577,12 @@ class SchemaAgent:
                                                                self.helper_motor_schema_cost, root_is_helped=True)
                     found.append(FeasibleCoalition(lcs, members, cost))
                 root.found[index] = found
-        found = [coalition for index in sorted(root.found) for coalition in root.found[index]
-                 if not self.excluded.intersection(coalition.members)]
-        found.sort(key=lambda c: (c.cost, c.potential_solution.rank, c.members, tuple(c.lcs.step_lines())))
-        return found
+            root.ordered = None
+        if root.ordered is None:
+            root.ordered = sorted((coalition for index in sorted(root.found) for coalition in root.found[index]
+                                   if not self.excluded.intersection(coalition.members)),
+                                  key=lambda coalition: coalition.order)
+        return list(root.ordered)
 
     def sensors_serving(self, robot: str) -> tuple[str, ...]:
         """This robot's sensors in the cheapest answers it offered to ``robot`` (what it keeps

@@ -212,6 +212,60 @@ class SearchPlan:
     variant: InformationInstance | None = None
 
 
+class _Candidates:
+    """A leaf's candidates (instance, offer or None) with a hash index per variable position of
+    its label: entity -> the candidates with that entity there (built when first needed)."""
+
+    __slots__ = ('label', 'entries', 'has_offers', '_index')
+
+    def __init__(self, label: InformationInstance, entries: list[tuple[InformationInstance, InformationOffer | None]]):
+        self.label = label
+        self.entries = entries
+        self.has_offers = any(offer is not None for _, offer in entries)
+        self._index: dict[int, dict[Entity, list]] | None = None
+
+    def consistent(self, binding: Mapping[Variable, Entity]) -> list:
+        """The candidates that can agree with ``binding`` (narrowed by the most selective bound
+        variable; the join still checks each)."""
+        if self._index is None:
+            index: dict[int, dict[Entity, list]] = {}
+            for position, referent in enumerate(self.label.referents):
+                if isinstance(referent, Variable):
+                    table: dict[Entity, list] = {}
+                    for candidate in self.entries:
+                        table.setdefault(candidate[0].referents[position], []).append(candidate)
+                    index[position] = table
+            self._index = index
+        best = self.entries
+        for position, table in self._index.items():
+            entity = binding.get(self.label.referents[position])  # type: ignore[arg-type]
+            if entity is not None:
+                narrowed = table.get(entity, [])
+                if len(narrowed) < len(best):
+                    best = narrowed
+        return best
+
+
+class _Slot:
+    """One leaf of a potential solution in a join: its candidates, and (semi-naive joins) the
+    offers it must not take."""
+
+    __slots__ = ('index', 'leaf', 'label', 'candidates', 'excluded')
+
+    def __init__(self, index: int, leaf: SolutionStep, label: InformationInstance, candidates: _Candidates,
+                 excluded: set[int] | None = None):
+        self.index, self.leaf, self.label, self.candidates, self.excluded = index, leaf, label, candidates, excluded
+
+    def consistent(self, binding: Mapping[Variable, Entity]) -> list:
+        return self.candidates.consistent(binding)
+
+    def only(self, candidates: _Candidates) -> '_Slot':
+        return _Slot(self.index, self.leaf, self.label, candidates)
+
+    def excluding(self, offers: set[int]) -> '_Slot':
+        return _Slot(self.index, self.leaf, self.label, self.candidates, offers)
+
+
 class RobotReasoner:
     """One robot's IQ-ASyMTRe reasoning for one task, step by step (Algorithm 2).
 
@@ -234,6 +288,8 @@ class RobotReasoner:
         self.ledger = RequestLedger(self.robot)
         self._compiled: dict[int, _CompiledSolution] = {}
         self._reply_spaces: dict[InformationInstance, SolutionSpace] = {}
+        self._cache_view: tuple | None = None
+        self._cache: dict = {}
 
     @property
     def helper_motor_schema_cost(self) -> float:
@@ -342,38 +398,27 @@ class RobotReasoner:
         instantiations providing that instance are produced."""
         local_cost = round(solution.cost - (self.costs.cs if reply else 0.0), COST_DIGITS)
         compiled = self.compiled(solution)
-        slots = []
+        cache = self._view_cache(sensed, offers)
+        slots: list[_Slot] = []
         for index, (leaf, label, requested) in enumerate(compiled.leaves):
-            candidates: list[tuple[InformationInstance, InformationOffer | None]]
-            if leaf.kind is SchemaKind.PRIOR:
-                candidates = [(label, None)] if label.is_fully_instantiated else []
-            elif leaf.kind is SchemaKind.ES_EPS:
-                readings = dict.fromkeys(sensed.get(leaf.schema, ()))
-                candidates = [(instance, None) for instance in readings if answers_request(instance, label)]
-            else:
-                # The leaf's label is the request label up to renaming, so every offer received
-                # for the request (checked on receipt) fits the leaf; offers keep arrival order.
-                matching = list(offers.get(requested, ()))
-                if below_cost is not None:
-                    matching = [offer for offer in matching if local_cost + offer.cost < below_cost]
-                if at_most_cost is not None:
-                    matching = [offer for offer in matching
-                                if round(local_cost + offer.cost, COST_DIGITS) <= at_most_cost]
-                if cheapest_offers:
-                    best: dict[InformationInstance, InformationOffer] = {}
-                    for offer in matching:
-                        kept = best.get(offer.instance)
-                        if kept is None or (offer.cost, offer.provider) < (kept.cost, kept.provider):
-                            best[offer.instance] = offer
-                    matching = list(best.values())
-                candidates = [(offer.instance, offer) for offer in matching]
-            if not candidates:
+            key = (leaf.kind, leaf.schema if leaf.kind is SchemaKind.ES_EPS else requested, label,
+                   cheapest_offers and leaf.kind is SchemaKind.CS)
+            candidates = cache.get(key)
+            if candidates is None:
+                candidates = cache[key] = _Candidates(label, self._candidates(leaf, label, requested, sensed, offers,
+                                                                              cheapest_offers))
+            if not candidates.entries:
                 return
-            slots.append((index, leaf, label, candidates))
-        if new_offers is not None:
-            fresh = {id(offer) for label_offers in new_offers.values() for offer in label_offers}
-            yield from self._delta_join(solution, slots, fresh, reply, limit)
-            return
+            slots.append(_Slot(index, leaf, label, candidates))
+        # Offers that alone bring the coalition to the cost limit are skipped during the join
+        # (the candidate lists and their indexes are shared by every solution of this view).
+        if below_cost is not None or at_most_cost is not None:
+            def affordable(offer: InformationOffer) -> bool:
+                if below_cost is not None and not local_cost + offer.cost < below_cost:
+                    return False
+                return at_most_cost is None or round(local_cost + offer.cost, COST_DIGITS) <= at_most_cost
+        else:
+            affordable = None
         start: dict[Variable, Entity] = {}
         if answer is not None:
             root = solution.root.output
@@ -381,63 +426,66 @@ class RobotReasoner:
             if bound is None:
                 return  # this solution never provides ``answer``
             start = bound
-        yield from self._join(solution, slots, reply, limit, start)
+        if new_offers is None:
+            yield from self._join(solution, slots, reply, limit, start, affordable)
+            return
+        fresh = {id(offer) for label_offers in new_offers.values() for offer in label_offers}
+        produced = 0
+        for lcs in self._delta_join(solution, slots, fresh, reply, start, affordable):
+            yield lcs
+            produced += 1
+            if limit is not None and produced >= limit:
+                return
 
-    def _delta_join(self, solution: PotentialSolution, slots: list, fresh: set[int], reply: bool,
-                    limit: int | None) -> Iterator[LocalCoalitionSolution]:
+    def _view_cache(self, sensed, offers) -> dict:
+        """Candidates per leaf label for one view of the readings and offers (the same objects
+        are passed for every solution a robot instantiates at one evaluation)."""
+        view = self._cache_view
+        if view is None or view[0] is not sensed or view[1] is not offers:
+            self._cache_view = (sensed, offers)  # keeps them alive: identity stays meaningful
+            self._cache = {}
+        return self._cache
+
+    @staticmethod
+    def _candidates(leaf: SolutionStep, label: InformationInstance, requested: InformationInstance | None, sensed,
+                    offers, cheapest_offers: bool) -> list[tuple[InformationInstance, InformationOffer | None]]:
+        if leaf.kind is SchemaKind.PRIOR:
+            return [(label, None)] if label.is_fully_instantiated else []
+        if leaf.kind is SchemaKind.ES_EPS:
+            readings = dict.fromkeys(sensed.get(leaf.schema, ()))
+            return [(instance, None) for instance in readings if answers_request(instance, label)]
+        # The leaf's label is the request label up to renaming, so every offer received for the
+        # request (checked on receipt) fits the leaf; offers keep arrival order.
+        matching = list(offers.get(requested, ()))
+        if cheapest_offers:
+            best: dict[InformationInstance, InformationOffer] = {}
+            for offer in matching:
+                kept = best.get(offer.instance)
+                if kept is None or (offer.cost, offer.provider) < (kept.cost, kept.provider):
+                    best[offer.instance] = offer
+            matching = list(best.values())
+        return [(offer.instance, offer) for offer in matching]
+
+    def _delta_join(self, solution: PotentialSolution, slots: list['_Slot'], fresh: set[int], reply: bool,
+                    start: Mapping[Variable, Entity], affordable) -> Iterator[LocalCoalitionSolution]:
         """Joins in which slot i takes only new offers, earlier slots only old ones (each
         combination with at least one new offer appears exactly once)."""
-        produced = 0
-        offer_slots = [k for k, slot in enumerate(slots) if any(o is not None for _, o in slot[3])]
+        offer_slots = [k for k, slot in enumerate(slots) if slot.candidates.has_offers]
         for position, k in enumerate(offer_slots):
-            new_here = [c for c in slots[k][3] if id(c[1]) in fresh]
+            new_here = [c for c in slots[k].candidates.entries if id(c[1]) in fresh]
             if not new_here:
                 continue
             restricted = list(slots)
-            restricted[k] = (*slots[k][:3], new_here)
-            empty = False
+            restricted[k] = slots[k].only(_Candidates(slots[k].label, new_here))
             for earlier in offer_slots[:position]:
-                old = [c for c in slots[earlier][3] if id(c[1]) not in fresh]
-                if not old:
-                    empty = True
-                    break
-                restricted[earlier] = (*slots[earlier][:3], old)
-            if empty:
-                continue
-            for lcs in self._join(solution, restricted, reply, None):
-                yield lcs
-                produced += 1
-                if limit is not None and produced >= limit:
-                    return
+                restricted[earlier] = slots[earlier].excluding(fresh)
+            yield from self._join(solution, restricted, reply, None, start, affordable)
 
-    def _join(self, solution: PotentialSolution, slots: list, reply: bool, limit: int | None,
-              start: Mapping[Variable, Entity] | None = None) -> Iterator[LocalCoalitionSolution]:
+    def _join(self, solution: PotentialSolution, slots: list['_Slot'], reply: bool, limit: int | None,
+              start: Mapping[Variable, Entity] | None = None, affordable=None) -> Iterator[LocalCoalitionSolution]:
         compiled = self.compiled(solution)
-        # Hash join: candidates indexed by the entity at each variable position; the leaf with
-        # the fewest candidates consistent with the current binding is extended next.
-        indexes = []
-        for _, _, label, candidates in slots:
-            by_position: dict[int, dict[Entity, list]] = {}
-            for position, referent in enumerate(label.referents):
-                if isinstance(referent, Variable):
-                    table: dict[Entity, list] = {}
-                    for candidate in candidates:
-                        table.setdefault(candidate[0].referents[position], []).append(candidate)
-                    by_position[position] = table
-            indexes.append(by_position)
         chosen: dict[int, tuple[InformationInstance, InformationOffer | None]] = {}
         local_cost = round(solution.cost - (self.costs.cs if reply else 0.0), COST_DIGITS)
-
-        def consistent(slot: int, binding: Mapping[Variable, Entity]) -> list:
-            label, candidates = slots[slot][2], slots[slot][3]
-            best = candidates
-            for position, table in indexes[slot].items():
-                entity = binding.get(label.referents[position])  # type: ignore[arg-type]
-                if entity is not None:
-                    narrowed = table.get(entity, [])
-                    if len(narrowed) < len(best):
-                        best = narrowed
-            return best
 
         def search(remaining: tuple[int, ...], binding: dict[Variable, Entity]) -> Iterator[LocalCoalitionSolution]:
             if not remaining:
@@ -451,19 +499,23 @@ class RobotReasoner:
                 for group in compiled.input_groups:
                     if len({instance.substitute(binding) for instance in group}) != len(group):
                         return
-                sources = tuple((leaf, *chosen[index]) for index, leaf, _, _ in slots)
+                sources = tuple((slot.leaf, *chosen[slot.index]) for slot in slots)
                 binding_items = tuple(sorted(binding.items(), key=lambda kv: kv[0].name))
                 yield LocalCoalitionSolution(self.robot, solution, binding_items, sources, reply, local_cost)
                 return
-            options = [(len(found), slot, found) for slot in remaining for found in (consistent(slot, binding),)]
-            _, slot, found = min(options, key=lambda option: (option[0], option[1]))
-            rest = tuple(other for other in remaining if other != slot)
-            label = slots[slot][2]
+            # The leaf with the fewest candidates consistent with the binding is extended next.
+            options = [(len(found), k, found) for k in remaining for found in (slots[k].consistent(binding),)]
+            _, k, found = min(options, key=lambda option: (option[0], option[1]))
+            rest = tuple(other for other in remaining if other != k)
+            slot = slots[k]
             for instance, offer in found:
-                extended = bind_to_ground(label, instance, binding)
+                if offer is not None and ((slot.excluded is not None and id(offer) in slot.excluded)
+                                          or (affordable is not None and not affordable(offer))):
+                    continue
+                extended = bind_to_ground(slot.label, instance, binding)
                 if extended is None:
                     continue
-                chosen[slots[slot][0]] = (instance, offer)
+                chosen[slot.index] = (instance, offer)
                 yield from search(rest, extended)
 
         produced = 0
