@@ -4,7 +4,7 @@ import pytest
 from coalition_agents.core import (
     CoalitionError, Constraints, SchemaKind, SolutionSpaceCache, SolutionSpaceGenerator,
     capability_file_from_dict, external_communication_allows, generality_imposition_allows,
-    localness_allows,
+    load_capability_file, localness_allows,
 )
 
 TABLE3_COSTS = [5.0, 8.0, 8.5, 9.0, 9.5, 10.5, 11.0, 11.5, 11.5, 12.0, 12.0]
@@ -274,3 +274,30 @@ def test_unsatisfiable_requirement_gives_an_empty_space(library, costs, fig7_typ
     space = SolutionSpaceGenerator(library, robot, costs).motor_schema_space('navigate', [parse('F_A(local)')])
     assert space.is_empty and space.unsatisfiable == (parse('F_A(local)'),)
     assert space.potential_solutions() == [] and space.count_potential_solutions() == 0
+
+
+@pytest.mark.parametrize('team_file', ['fig7_team.yaml', 'box_pushing_team.yaml'])
+def test_reply_solutions_shared_through_placeholders_equal_generating_each_request(library, costs, config_dir,
+                                                                                  team_file):
+    """A request naming teammates is generated once with placeholder robots and renamed: the
+    solutions, their order, costs and ranks equal those generated for the request itself."""
+    team = dict(load_capability_file(config_dir / 'capabilities' / team_file, library).robots)
+    robots = list(team)
+    checked = 0
+    for robot, capabilities in team.items():
+        first, second = [r for r in robots if r != robot][:2]
+        shared = SolutionSpaceCache(library, costs).generator(capabilities)
+        for text in (f'F_R({first}, local)', f'F_R(local, {second})', f'F_G({first})', f'F_R({first}, {second})',
+                     'F_R(X, local)', 'F_G(local)'):
+            variant = library.parse(text, robots)
+            direct = SolutionSpaceCache(library, costs).generator(capabilities).request_space(variant)
+            expected = [(s.cost, s.rank, s.fixed_variables, s.schemas()) for s in direct.potential_solutions()]
+            got = [(s.cost, s.rank, s.fixed_variables, s.schemas()) for s in shared.reply_solutions(variant)]
+            assert got == expected, text
+            checked += bool(expected)
+    assert checked > 10
+    # Requests naming different teammates share one generation: the renamed solutions name the
+    # requested teammate, never a placeholder.
+    solutions = shared.reply_solutions(library.parse(f'F_R({second}, local)', robots))
+    assert solutions and all('_robot' not in line for s in solutions for line in s.schemas())
+    assert any(second in line for s in solutions for line in s.schemas())

@@ -343,7 +343,7 @@ class RobotReasoner:
         return space
 
     def reply_solutions(self, variant: InformationInstance) -> list[PotentialSolution]:
-        return self.reply_space(variant).potential_solutions(self.potential_solution_limit)
+        return self.generator.reply_solutions(variant, self.potential_solution_limit)
 
     # What a potential solution activates -------------------------------------------------------
     def sensing_needs(self, solution: PotentialSolution) -> list[tuple[str, InformationInstance]]:

@@ -295,6 +295,39 @@ def information_key(leaves: Sequence[SolutionStep], fixed: frozenset[str] = froz
     return best  # type: ignore[return-value]
 
 
+def placeholder_robots(instance: InformationInstance) -> tuple[InformationInstance, dict[Entity, Entity]]:
+    """``instance`` with each robot other than ``local`` replaced by a placeholder robot (in order
+    of appearance), and the placeholder -> robot renaming back (empty: nothing to replace).
+    Placeholder names are not valid entity names, so they never meet a real robot."""
+    names: dict[Entity, Entity] = {}
+    referents = []
+    for referent in instance.referents:
+        if isinstance(referent, Entity) and referent.robot and not referent.is_local:
+            placeholder = next((p for p, real in names.items() if real == referent), None)
+            if placeholder is None:
+                placeholder = Entity(f'_robot{len(names) + 1}', robot=True)
+                names[placeholder] = referent
+            referents.append(placeholder)
+        else:
+            referents.append(referent)
+    return InformationInstance(instance.label, tuple(referents)), names
+
+
+def rename_entities(solution: PotentialSolution, names: Mapping[Entity, Entity]) -> PotentialSolution:
+    """``solution`` with its entities renamed (``names``: old -> new)."""
+    def instance(value: InformationInstance | None) -> InformationInstance | None:
+        if value is None:
+            return None
+        for old, new in names.items():
+            value = value.replace_entity(old, new)
+        return value
+
+    def step(original: SolutionStep) -> SolutionStep:
+        return SolutionStep(original.kind, original.schema, instance(original.output),
+                            tuple(step(child) for child in original.inputs), original.cost)
+    return PotentialSolution(step(solution.root), solution.cost, solution.rank, solution.fixed_variables)
+
+
 # --- Lazy k-best over the and-or DAG ---------------------------------------------------------
 
 def _cost_key(cost: float) -> float:
@@ -407,6 +440,7 @@ class SolutionSpaceGenerator:
         self.stats = GenerationStats()
         self._memo: dict[tuple, RequirementNode | None] = {}
         self._uids = itertools.count()
+        self._replies: dict[tuple[InformationInstance, int | None], list[PotentialSolution]] = {}
         self.ranker = _Ranker()
 
     # Algorithm 1 -----------------------------------------------------------------------
@@ -488,6 +522,25 @@ class SolutionSpaceGenerator:
             self.costs.motor_schema(motor_schema))
         fixed = frozenset(v.name for instance in requirements for v in instance.variables)
         return SolutionSpace(self, root, fixed, missing, tuple(requirements))
+
+    def reply_solutions(self, instance: InformationInstance, limit: int | None = None) -> list[PotentialSolution]:
+        """The potential solutions of :meth:`request_space` (``limit``: the first ones), memoised.
+
+        Requests differ in the teammates they name (F_R(robot_3, local), F_R(robot_7, local),
+        ...) but not in the schemas that answer them: the space of a request naming teammates is
+        generated once with placeholders for them (:func:`placeholder_robots`) and renamed for
+        each request, which gives the same solutions in the same order as generating it for the
+        request itself."""
+        key = (instance, limit)
+        found = self._replies.get(key)
+        if found is None:
+            canonical, names = placeholder_robots(instance)
+            shared = self._replies.get((canonical, limit))
+            if shared is None:
+                shared = self._replies[(canonical, limit)] = self.request_space(canonical).potential_solutions(limit)
+            found = [rename_entities(solution, names) for solution in shared] if names else shared
+            self._replies[key] = found
+        return found
 
     def request_space(self, instance: InformationInstance) -> 'SolutionSpace':
         """The space of a CS root that answers a request for ``instance`` (in the local frame)."""
