@@ -472,7 +472,7 @@ class SchemaAgentNode(Node):
                 self.first_clock = now
             # Start when every teammate listens on the channel (a request sent before would only
             # be retried), or after team_wait without them.
-            listening = 1 + self.channel.teammates_listening()
+            listening = 1 + self.channel.teammates_listening(lambda teammate: f'/{teammate}/coalition')
             if listening < len(self.team) and now - self.first_clock < self.team_wait:
                 return
             if listening < len(self.team):

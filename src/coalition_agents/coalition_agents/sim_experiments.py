@@ -270,8 +270,30 @@ class AgentSetup:
     seed: int = 0
     team_wait_s: float = 30.0
     timeout_s: float = 180.0
-    #: True: every agent in one schema_agent_host process; False: one schema_agent process each
+    #: True: the agents in schema_agent_host processes; False: one schema_agent process each
     hosted: bool = True
+    #: how many schema_agent_host processes share the agents (see :func:`host_groups`)
+    host_processes: int = 1
+
+
+def host_groups(robots: Sequence[str], leaders: Sequence[str], processes: int) -> list[list[str]]:
+    """The robots of each schema_agent_host process, as even as possible: the first group (the
+    host the experiment waits for) holds every leader. Why several: one process runs its
+    agents' reasoning on one core (the GIL); a second process uses the machine's second core."""
+    if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
+        raise ConfigError(f'host_processes: must be an integer >= 1 (got {processes!r})')
+    processes = min(processes, len(robots))
+    helpers = [robot for robot in robots if robot not in leaders]
+    sizes = [len(robots) // processes + (1 if index < len(robots) % processes else 0) for index in range(processes)]
+    if len(leaders) > sizes[0]:
+        raise ConfigError(f'host_processes: {processes} processes put at most {sizes[0]} robots in the leaders\' '
+                          f'host, fewer than the {len(leaders)} leaders')
+    groups = [list(leaders) + helpers[:sizes[0] - len(leaders)]]
+    taken = sizes[0] - len(leaders)
+    for size in sizes[1:]:
+        groups.append(helpers[taken:taken + size])
+        taken += size
+    return groups
 
 
 def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence[Placement],
@@ -312,8 +334,11 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
         if node['executable'] != 'schema_agent_host':
             nodes.append(node)
         elif setup.hosted:
-            nodes.append({**node, 'use_sim_time': setup.use_sim_time,
-                          'parameters': list(node.get('parameters', [])) + [{'robots': robots}]})
+            # The experiment waits for the first host (the leaders'); the others stop with it.
+            for index, group in enumerate(host_groups(robots, setup.leaders, setup.host_processes)):
+                nodes.append({**node, 'use_sim_time': setup.use_sim_time,
+                              **({} if index == 0 else {'name': f'{node["executable"]}_{index + 1}', 'required': False}),
+                              'parameters': list(node.get('parameters', [])) + [{'robots': group}]})
         else:  # one schema_agent process per robot (the agents' parameter file is keyed by node name)
             nodes.extend({'package': 'coalition_agents', 'executable': 'schema_agent', 'name': f'{NODE_PREFIX}{robot}',
                           'use_sim_time': setup.use_sim_time, 'required': robot in setup.leaders,
@@ -340,6 +365,7 @@ class ColumnConfig:
     settle_time_s: float
     timeout_s: float
     paper_time_s: Mapping[int, float]
+    agent_processes: int = 1
 
     def search_time(self, robots: int) -> float:
         return self.search_time_s.get(str(robots), self.search_time_s['default'])
@@ -347,7 +373,7 @@ class ColumnConfig:
 
 def column_config_from_dict(data: object, path: Path) -> ColumnConfig:
     section = Section(data, '', ('robots', 'spacing_m', 'fiducial', 'link', 'search_time_s', 'settle_time_s',
-                                 'timeout_s', 'paper_time_s'))
+                                 'timeout_s', 'paper_time_s', 'agent_processes'))
     robots = []
     for item_path, value in section.items('robots'):
         number = as_number(value, item_path, ge=2.0)
@@ -373,9 +399,12 @@ def column_config_from_dict(data: object, path: Path) -> ColumnConfig:
         raise ConfigError('search_time_s.default: required (the search time of column sizes not listed)')
     paper = {int(k): v for k, v in _by_robots(section.get('paper_time_s', {}), 'paper_time_s').items()
              if k != 'default'}
+    processes = section.number('agent_processes', 1, ge=1.0)
+    if processes != int(processes):
+        raise ConfigError(f'agent_processes: must be a whole number >= 1 (got {processes!r})')
     return ColumnConfig(path, tuple(robots), spacing, sensors, preset, loss, search,
                         section.number('settle_time_s', 1.0, gt=0.0), section.number('timeout_s', 150.0, gt=0.0),
-                        paper)
+                        paper, int(processes))
 
 
 def _by_robots(value: object, path: str) -> dict:
@@ -420,7 +449,8 @@ def run_fig9(config_dir: str | Path, run_dir: str | Path, log: Log = print,
         placements = column_placements(robots, config.spacing_m)
         setup = AgentSetup(leaders=(placements[-1].robot,), search_time_s=config.search_time(robots),
                            settle_time_s=config.settle_time_s, loss_probability=config.loss_probability, link_preset=config.link_preset,
-                           use_sim_time=False, seed=index, timeout_s=config.timeout_s)
+                           use_sim_time=False, seed=index, timeout_s=config.timeout_s,
+                           host_processes=config.agent_processes)
         case_dir = run_dir / f'n{robots:02d}'
         log(f'[coalition-fig9 {index}/{len(wanted)}] column of {robots} robots (search_time '
             f'{setup.search_time_s:g} s) -> {case_dir}')

@@ -138,6 +138,18 @@ def test_codec_canonicalises_request_variables(library, codec):
     assert str(codec.decode(data).request.label) == 'F_R(X, robot_1)'
 
 
+def test_codec_checks_a_repeated_instance_once_and_a_malformed_one_every_time(library):
+    codec = ChannelCodec.for_team(library, TEAM)
+    data = sample_messages(library)[0].to_dict()
+    data['label'] = {'type': 'F_R', 'referents': ['Z7', 'robot_1']}
+    first, again = codec.decode(data), codec.decode(json.loads(json.dumps(data)))
+    assert first.request.label is again.request.label            # the checked instance, kept
+    data['label'] = {'type': 'F_R', 'referents': ['robot_1', 'robot_1']}
+    for _ in range(2):
+        with pytest.raises(RequestError, match='an entity appears twice'):
+            codec.decode(data)
+
+
 def mutate(data, path, value):
     data = json.loads(json.dumps(data))
     target = data

@@ -95,13 +95,34 @@ def test_column_config_errors_name_the_field(tmp_path):
     config = load_column_config(path)
     assert config.robots == (2, 10) and config.search_time(10) == 3.0 and config.search_time(2) == 2.0
     assert config.paper_time_s == {10: 28.0}
+    assert config.agent_processes == 1
+    path.write_text(yaml.safe_dump({**good, 'agent_processes': 2}))
+    assert load_column_config(path).agent_processes == 2
     for change, message in ((({'fiducial': {'fov_deg': 60.0, 'range_m': 2.5}}), 'fiducial: each robot must see only'),
                             ({'robots': [1]}, 'robots'), ({'search_time_s': {10: 3.0}}, 'search_time_s.default'),
                             ({'search_time_s': {'default': 2.0, 'ten': 3.0}}, 'search_time_s.ten'),
+                            ({'agent_processes': 0}, 'agent_processes'), ({'agent_processes': 1.5}, 'agent_processes'),
                             ({'colour': 1}, 'colour')):
         path.write_text(yaml.safe_dump({**good, **change}))
         with pytest.raises(ConfigError, match=message):
             load_column_config(path)
+
+
+def test_host_groups_split_the_agents_evenly_with_the_leaders_in_the_first_host():
+    from coalition_agents.sim_experiments import host_groups
+    robots = [f'robot_{k}' for k in range(1, 11)]
+    groups = host_groups(robots, ['robot_10'], 2)
+    assert groups == [['robot_10', 'robot_1', 'robot_2', 'robot_3', 'robot_4'],
+                      ['robot_5', 'robot_6', 'robot_7', 'robot_8', 'robot_9']]
+    assert host_groups(robots, ['robot_10'], 1) == [['robot_10', *robots[:9]]]
+    three = host_groups(robots[:7], ['robot_2', 'robot_5'], 3)
+    assert [len(group) for group in three] == [3, 2, 2] and three[0][:2] == ['robot_2', 'robot_5']
+    assert sorted(sum(three, [])) == sorted(robots[:7])
+    assert host_groups(robots[:2], ['robot_2'], 5) == [['robot_2'], ['robot_1']]  # no empty host
+    with pytest.raises(ConfigError, match='host_processes'):
+        host_groups(robots, ['robot_1', 'robot_2', 'robot_3'], 5)  # 2 robots per host < 3 leaders
+    with pytest.raises(ConfigError, match='host_processes'):
+        host_groups(robots, ['robot_1'], 0)
 
 
 # --- results from a bag --------------------------------------------------------------------------

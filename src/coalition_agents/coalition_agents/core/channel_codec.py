@@ -195,6 +195,10 @@ class ChannelCodec:
     types: InformationTypes
     catalog: EntityCatalog
     robots: tuple[str, ...] = field(init=False)
+    #: (type, referents) -> the checked instance: the same few hundred instances come and go in
+    #: every batch (only valid ones are kept; a malformed one is checked, and refused, each time)
+    _checked: dict[tuple, InformationInstance] = field(init=False, default_factory=dict, repr=False)
+    _canonical: dict[InformationInstance, InformationInstance] = field(init=False, default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         self.robots = tuple(sorted(self.catalog.robots))
@@ -343,10 +347,17 @@ class ChannelCodec:
         if unknown:
             raise RequestError(f'{path}.{unknown[0]}: unknown field (allowed: type, referents)')
         label = value.get('type')
+        referents = value.get('referents', None)
+        key = None
+        if (isinstance(label, str) and isinstance(referents, (list, tuple))
+                and all(isinstance(name, str) for name in referents)):
+            key = (label, tuple(referents))
+            known = self._checked.get(key)
+            if known is not None:
+                return known
         if not isinstance(label, str) or label not in self.types:
             raise RequestError(f"{path}.type: unknown information type {label!r} "
                                f"(known: {', '.join(self.types.labels) or 'none'})")
-        referents = value.get('referents', None)
         if not isinstance(referents, (list, tuple)):
             raise RequestError(f'{path}.referents: must be a list of names (got {describe_type(referents)})')
         parsed = []
@@ -372,6 +383,8 @@ class ChannelCodec:
         if instance.is_degenerate:
             raise RequestError(f'{path}.referents: an entity appears twice in {instance} (referents of one '
                                f'instance are different entities)')
+        if key is not None:
+            self._checked[key] = instance
         return instance
 
     @staticmethod
@@ -387,7 +400,11 @@ class ChannelCodec:
         return tuple(check_value_fields(label, pairs, path).items())
 
     def _label(self, value: Any, path: str) -> InformationInstance:
-        return canonical_instance(self._instance(value, path))
+        instance = self._instance(value, path)
+        label = self._canonical.get(instance)
+        if label is None:
+            label = self._canonical[instance] = canonical_instance(instance)
+        return label
 
     def _chain(self, value: Any, path: str) -> tuple[tuple[str, InformationInstance], ...]:
         if not isinstance(value, (list, tuple)):
