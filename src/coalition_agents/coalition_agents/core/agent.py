@@ -153,12 +153,6 @@ def _offer_rank(offer: InformationOffer) -> tuple[float, str]:
     return offer.cost, offer.provider
 
 
-def _cheapest_offer(offers: Iterable[tuple[InformationOffer, tuple[str, ...]]],
-                    instance: InformationInstance) -> InformationOffer | None:
-    matching = [offer for offer, _ in offers if offer.instance == instance]
-    return min(matching, key=_offer_rank) if matching else None
-
-
 def _better(entry: Answer, kept: Answer | None) -> bool:
     if kept is None or entry[0] < kept[0]:
         return True
@@ -192,11 +186,10 @@ class _Changes:
         for label, offers in earlier.new_offers.items():
             self.new_offers[label] = offers + self.new_offers.get(label, [])
 
-    def add_offer(self, index: int, offer: InformationOffer) -> None:
-        self.dirty.add(index)
-        offers = self.new_offers.setdefault(offer.request, [])
-        if not offers or offers[-1] is not offer:  # once per space, not per potential solution
-            offers.append(offer)
+    def add_offer(self, indices: Iterable[int], offer: InformationOffer) -> None:
+        """A new offer for the potential solutions ``indices`` (those using its request label)."""
+        self.dirty.update(indices)
+        self.new_offers.setdefault(offer.request, []).append(offer)
 
 
 @dataclass
@@ -270,13 +263,15 @@ class SchemaAgent:
         #: sensor -> the readings the cached answers were computed with
         self._readings_used: dict[str, tuple[InformationInstance, ...]] = {}
         #: request label / sensor -> (space, solution index) of every potential solution using it
-        self._label_users: dict[InformationInstance, list[tuple[object, int]]] = {}
+        self._label_users: dict[InformationInstance, dict[int, tuple[object, list[int]]]] = {}
         self._sensor_users: dict[str, list[tuple[object, int]]] = {}
         #: where the next budgeted :meth:`tick` starts in the reply spaces (round robin)
         self._cursor = 0
         self._answering: dict[tuple[InformationInstance, InformationInstance], bool] = {}
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
+        #: (request label, instance) -> the cheapest offer of it (what a reply uses)
+        self._cheapest: dict[tuple[InformationInstance, InformationInstance], InformationOffer] = {}
         #: request label -> (provider, instance) -> (offer, members)
         self.offers: dict[InformationInstance, dict[tuple[str, InformationInstance], tuple[InformationOffer, tuple[str, ...]]]] = {}
         self._local: list[InformationRequest] = []
@@ -299,13 +294,15 @@ class SchemaAgent:
         """Index which request labels and sensors each potential solution of ``space`` uses."""
         for index, solution in enumerate(solutions):
             for label in self.reasoner.request_labels(solution):
-                self._label_users.setdefault(label, []).append((space, index))
+                self._label_users.setdefault(label, {}).setdefault(id(space), (space, []))[1].append(index)
             for sensor in dict.fromkeys(sensor for sensor, _ in self.reasoner.sensing_needs(solution)):
                 self._sensor_users.setdefault(sensor, []).append((space, index))
             space.changes.stale.add(index)  # type: ignore[attr-defined]
 
     def _unregister_root(self) -> None:
-        for users in (*self._label_users.values(), *self._sensor_users.values()):
+        for by_space in self._label_users.values():
+            by_space.pop(id(self._root), None)
+        for users in self._sensor_users.values():
             users[:] = [(space, index) for space, index in users if space is not self._root]
 
     # Algorithm 2: the own task ---------------------------------------------------------------------
@@ -329,6 +326,7 @@ class SchemaAgent:
             return
         self.excluded = frozenset(exclude)
         self.offers.clear()
+        self._cheapest.clear()
         self.reasoner.ledger.sent.clear()
         self._unregister_root()
         self._root = _RootSpace()
@@ -375,15 +373,17 @@ class SchemaAgent:
             return
         received = _ReceivedOffer(offer.provider, offer.request, offer.instance, None, offer.cost,  # type: ignore[arg-type]
                                   offer.members)
-        cheapest = _cheapest_offer(offers.values(), offer.instance)
+        cheapest = self._cheapest.get((offer.request, offer.instance))
         offers[key] = (received, offer.members)
+        if cheapest is None or _offer_rank(received) < _offer_rank(cheapest):
+            self._cheapest[(offer.request, offer.instance)] = received
         # What is no longer usable: the task's solutions use every offer (the replaced one is
         # gone); a reply uses the cheapest per instance (an undercut one is gone).
         replaced = None if kept is None else id(kept[0])
         undercut = id(cheapest) if cheapest is not None and _offer_rank(received) < _offer_rank(cheapest) else None
-        for space, index in self._label_users.get(offer.request, ()):
+        for space, indices in self._label_users.get(offer.request, {}).values():
             changes: _Changes = space.changes  # type: ignore[attr-defined]
-            changes.add_offer(index, received)
+            changes.add_offer(indices, received)
             gone = replaced if space is self._root else undercut
             if gone is not None:
                 changes.gone.add(gone)
