@@ -48,7 +48,8 @@ Execution (after the coalition is set up):
   motion when a teammate's fiducial localises it); ``push_box_cooperatively`` pushes the box to
   the goal and waits while the teammate's streamed bumper is not pressed. A committed helper runs
   ``maintain_relative_position`` on its fiducial view of the leader (a pushing teammate also
-  creeps into contact and keeps pressing). When the MS is done the leader stops, releases its
+  creeps into contact and keeps pressing; a leader out of view is searched for by turning
+  towards where it was last seen). When the MS is done the leader stops, releases its
   helpers and reports ``completed`` (``failed`` after ``task_time_limit``).
 * Re-forming (``reform_timeout`` > 0; 0, the default, keeps a coalition however its information
   fares): when a source of the chosen solution -- a helper's stream or the leader's own reading --

@@ -44,6 +44,10 @@ class Wire:
     def round(self, now):
         for agent in self.agents.values():
             agent.tick(now)
+        return self.deliver()
+
+    def deliver(self):
+        """Hand every queued message to its recipient; how many there were."""
         delivered = len(self.queue)
         while self.queue:
             kind, recipient, payload, sender = self.queue.popleft()
@@ -142,14 +146,8 @@ def run_to_quiet(wire, robots, budget_s):
             calls += 1
             while agent.tick(0.0, budget_s=budget_s):
                 calls += 1
-        if not wire.queue:
+        if not wire.deliver():
             return calls
-        while wire.queue:
-            kind, recipient, payload, sender = wire.queue.popleft()
-            if kind == 'request':
-                wire.agents[recipient].on_request(payload, sender)
-            else:
-                wire.agents[recipient].on_offer(payload)
 
 
 def test_answers_built_on_a_replaced_offer_are_repaired_as_a_full_evaluation_would(library, costs, tasks):

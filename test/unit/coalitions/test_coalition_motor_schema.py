@@ -112,7 +112,33 @@ def test_helper_keeps_the_leader_at_its_relative_position():
     seen_x = math.cos(-helper[2]) * (leader[0] - helper[0]) - math.sin(-helper[2]) * (leader[1] - helper[1])
     assert math.hypot(leader[0] - helper[0], leader[1] - helper[1]) == pytest.approx(1.5, abs=0.35)
     assert seen_x > 1.0  # still ahead, in view
-    assert follow.command(None) == STOP
+
+
+def test_a_helper_that_lost_sight_of_the_leader_turns_towards_where_it_last_saw_it():
+    assert MaintainRelativePosition(target=(0.0, 0.6)).command(None) == STOP  # never seen: wait
+    left, right = MaintainRelativePosition(target=(0.0, 0.6)), MaintainRelativePosition(target=(0.5, -0.6))
+    left.command((0.0, 0.6))
+    right.command((0.5, -0.6))
+    assert left.command(None).linear == 0.0 and left.command(None).angular > 0
+    assert right.command(None).linear == 0.0 and right.command(None).angular < 0
+    # A pushing teammate keeps the leader abeam, at the edge of a 170 deg field of view: when the
+    # leader drops behind that edge the helper turns until it sees it again (it used to stop,
+    # and the leader waited for it for ever).
+    follow = MaintainRelativePosition(target=(0.0, 0.6))
+    follow.command((0.0, 0.6))                          # seen abeam, on the left
+    helper, leader = (0.0, 0.0, 0.0), (-0.15, 0.6)      # then it dropped behind the edge of the view
+
+    def in_view():
+        dx, dy = leader[0] - helper[0], leader[1] - helper[1]
+        bearing = math.atan2(dy, dx) - helper[2]
+        return abs(math.atan2(math.sin(bearing), math.cos(bearing))) <= math.radians(85.0)
+    assert not in_view()
+    for _ in range(100):
+        helper = step(helper, follow.command(None))
+        if in_view():
+            break
+    assert in_view() and helper[2] > 0                 # it turned left and sees the leader again
+    assert helper[:2] == (0.0, 0.0)                    # on the spot: it does not push blindly
 
 
 def test_bad_gains_are_rejected_with_the_parameter_name():

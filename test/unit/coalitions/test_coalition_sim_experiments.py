@@ -133,7 +133,6 @@ def coalition_bag(tmp_path):
 
     statuses: (t, robot, state, task, coalition_id, leader, members, cost);
     messages: (t, sender, receiver, kind, members)."""
-    pytest.importorskip('rosbags')
     from collab_tools.core.bag_types import build_typestore
     from collab_tools.core.bag_writer import BagWriter
 

@@ -5,10 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip('rosbags')
-
-from collab_tools.core.bag_types import build_typestore  # noqa: E402
-from collab_tools.core.bag_writer import BagWriter, QosSpec  # noqa: E402
+from collab_tools.core.bag_types import build_typestore
+from collab_tools.core.bag_writer import BagWriter, QosSpec
 
 from role_engine.formation_experiment import (commanded_positions, formation_acceptance,  # noqa: E402
                                               formation_results, read_formation_bag)

@@ -193,8 +193,11 @@ class MaintainRelativePosition:
     the helper's fiducial reading of the leader (module docstring)."""
 
     def __init__(self, target: tuple[float, float], max_speed: float = 0.35, max_turn: float = 1.0,
-                 gain: float = 1.2, tolerance: float = 0.1, creep_speed: float = 0.08):
+                 gain: float = 1.2, tolerance: float = 0.1, creep_speed: float = 0.08, search_turn: float = 0.4):
         self.target = (float(target[0]), float(target[1]))
+        self.search_turn = _positive('search_turn', search_turn)
+        #: bearing (rad, helper frame) at which the leader was last seen
+        self.last_bearing: float | None = None
         self.creep_speed = _positive('creep_speed', creep_speed)
         self.max_speed = _positive('follow_max_speed', max_speed)
         self.max_turn = _positive('follow_max_turn', max_turn)
@@ -202,12 +205,17 @@ class MaintainRelativePosition:
         self.tolerance = _positive('follow_tolerance', tolerance)
 
     def command(self, leader: tuple[float, float] | None, pressed: bool | None = None) -> Velocity:
-        """``leader``: the leader's position in the helper's frame (None: not seen -> stop).
-        ``pressed``: for a pushing teammate (box pushing), its own bumper -- out of contact it
-        creeps forward into it (the leader waits for that, :class:`BoxPush`), in contact it
-        never backs off the box."""
+        """``leader``: the leader's position in the helper's frame (None: not seen now: turn on
+        the spot towards where it was last seen, so that a leader that left the fiducial's field
+        of view -- a helper keeping it abeam has it at the edge -- comes back into view; never
+        seen: stop). ``pressed``: for a pushing teammate (box pushing), its own bumper -- out of
+        contact it creeps forward into it (the leader waits for that, :class:`BoxPush`), in
+        contact it never backs off the box."""
         if leader is None:
-            return STOP
+            if self.last_bearing is None:
+                return STOP
+            return Velocity(0.0, math.copysign(self.search_turn, self.last_bearing))
+        self.last_bearing = math.atan2(leader[1], leader[0])
         ex, ey = leader[0] - self.target[0], leader[1] - self.target[1]
         # Keep the leader's bearing where it was (turn) and its forward distance (drive).
         bearing_error = wrap(math.atan2(leader[1], leader[0]) - math.atan2(self.target[1], self.target[0]))
