@@ -23,18 +23,25 @@ Event-driven evaluation (ours; the result is the one of re-instantiating everyth
 a potential solution is re-instantiated only when one of its inputs changed. An offer from a new
 provider or of a new instance for one of its request labels adds only the instantiations that
 use at least one of the new offers (semi-naive, :meth:`~.coalition.RobotReasoner.local_coalition_solutions`
-``new_offers``); a cheaper offer replacing an earlier one of the same provider and instance, or
-a change in the set of current readings of one of its sensors (a new detection, a reading that
-expired), re-instantiates it completely. The answers of
-every potential solution are kept; a reply space's best answers are merged from them, and a new
+``new_offers``). An offer that is no longer usable -- replaced by its provider's cheaper one, or
+(a reply uses the cheapest offer per instance) undercut by another provider's -- is *gone*: only
+the answers whose cheapest way used it are instantiated again, each restricted to that answer
+(the ways it beat before may be its cheapest now); every other kept answer is still the
+cheapest without the new offers. A change in the set of current readings of one of its sensors
+(a new detection, a reading that expired) re-instantiates it completely. The answers of every
+potential solution are kept; a reply space's best answers are merged from them, and a new
 subscriber of an existing reply space is sent the existing best answers without any
-re-instantiation. The task's own potential solutions (``coalitions``) are cached the same way.
-Equal-cost answers are decided by :func:`_answer_order` (not by the order instantiations are
-found), so incremental and full evaluation choose the same. ``evaluations`` counts
-instantiations of a potential solution (the work done); ``incremental=False`` re-instantiates
-everything on every call, the reference the unit tests compare against. A tick consumes the
-changes pending when it starts: offers a robot sends itself during a tick are evaluated at the
-next one, as in a full re-evaluation (which takes its view of the offers when the tick starts).
+re-instantiation (the others only the answers whose cost changed). The task's own potential
+solutions (``coalitions``) are cached the same way. Equal-cost answers are decided by
+:func:`_answer_order` (not by the order instantiations are found), so incremental and full
+evaluation choose the same. ``evaluations`` counts instantiations of a potential solution (the
+work done), ``repaired_answers`` the answers instantiated again; ``incremental=False``
+re-instantiates everything on every call, the reference the unit tests compare against. A tick
+consumes the changes pending when it starts: offers a robot sends itself during a tick are
+evaluated at the next one, as in a full re-evaluation (which takes its view of the offers when
+the tick starts). With a time budget a tick stops between reply spaces and leaves the rest,
+with their pending changes, to the next call (round robin), so that a transport can run
+between slices.
 
 While a coalition executes, ``served_answers`` names what a helper streams to its coalition and
 ``own_answers`` how a robot computes the answers it gives itself (footnote 10); ``restart``
