@@ -66,6 +66,8 @@ Agent channel messages                       channel_codec (ChannelCodec, Channe
                                              MessageKind)
 Request-and-wait negotiation, retries        reliable_channel (ReliableChannel, RetryPolicy,
                                              CommitmentLedger)
+Agents sharing one process (ours)            cooperative_work (CooperativeWork): bounded,
+                                             round-robin reasoning steps
 ===========================================  ==================================================
 
 Choices where the paper is silent or ambiguous (each is documented where it is made)
