@@ -1,7 +1,6 @@
 """SchemaAgent (one robot's distributed Algorithm 2) against the in-process CoalitionSearch."""
 from __future__ import annotations
 
-import collections
 import math
 
 import pytest
@@ -12,44 +11,7 @@ from coalition_agents.core.channel_codec import OfferSummary
 from coalition_agents.core.live_sensing import LiveSensing
 from coalition_agents.core.errors import ConfigError
 
-
-class Wire:
-    """Lossless in-memory transport between agents (FIFO), recording what they ask for."""
-
-    def __init__(self):
-        self.queue = collections.deque()
-        self.agents: dict[str, SchemaAgent] = {}
-        self.switches: list[tuple[str, str, bool]] = []
-
-    def outbox(self, robot):
-        wire = self
-
-        class Outbox:
-            def set_sensor(self, sensor, active):
-                wire.switches.append((robot, sensor, active))
-
-            def send_request(self, request, recipients):
-                assert robot not in recipients
-                for recipient in recipients:
-                    wire.queue.append(('request', recipient, request, robot))
-
-            def send_offer(self, offer, reply_to):
-                wire.queue.append(('offer', reply_to, offer, robot))
-        return Outbox()
-
-    def run(self, now=0.0, rounds=50):
-        for _ in range(rounds):
-            for agent in self.agents.values():
-                agent.tick(now)
-            if not self.queue:
-                return
-            while self.queue:
-                kind, recipient, payload, sender = self.queue.popleft()
-                if kind == 'request':
-                    self.agents[recipient].on_request(payload, sender)
-                else:
-                    self.agents[recipient].on_offer(payload)
-        raise AssertionError('messages did not stop')
+from coalition_wire import Wire
 
 
 SIGHTINGS = {  # robot -> sensor -> what it reports (names it sees)

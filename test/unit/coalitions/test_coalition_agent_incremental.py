@@ -2,7 +2,6 @@
 everything on every tick, and no work when nothing changed."""
 from __future__ import annotations
 
-import collections
 import random
 
 import pytest
@@ -15,47 +14,7 @@ from coalition_agents.core.errors import InformationError
 from coalition_agents.core.requests import InformationRequest, answers_request
 from coalition_agents.core.sim_scenarios import COLUMN_TYPES, capability_file, column_placements
 
-
-class Wire:
-    """Lossless FIFO transport that logs every offer sent (in order)."""
-
-    def __init__(self):
-        self.queue = collections.deque()
-        self.agents: dict[str, SchemaAgent] = {}
-        self.offers: list[tuple] = []
-
-    def outbox(self, robot):
-        wire = self
-
-        class Outbox:
-            def set_sensor(self, sensor, active):
-                pass
-
-            def send_request(self, request, recipients):
-                for recipient in recipients:
-                    wire.queue.append(('request', recipient, request, robot))
-
-            def send_offer(self, offer, reply_to):
-                wire.offers.append((offer.provider, reply_to, str(offer.request), str(offer.instance), offer.cost,
-                                    offer.members))
-                wire.queue.append(('offer', reply_to, offer, robot))
-        return Outbox()
-
-    def round(self, now):
-        for agent in self.agents.values():
-            agent.tick(now)
-        return self.deliver()
-
-    def deliver(self):
-        """Hand every queued message to its recipient; how many there were."""
-        delivered = len(self.queue)
-        while self.queue:
-            kind, recipient, payload, sender = self.queue.popleft()
-            if kind == 'request':
-                self.agents[recipient].on_request(payload, sender)
-            else:
-                self.agents[recipient].on_offer(payload)
-        return delivered
+from coalition_wire import Wire
 
 
 def column(library, costs, tasks, robots, incremental):

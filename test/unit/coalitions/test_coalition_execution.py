@@ -3,7 +3,6 @@ the leader's F_G(local) is instantiated from the stream, stale streams make the 
 infeasible and the leader re-forms with another helper."""
 from __future__ import annotations
 
-import collections
 import math
 
 import pytest
@@ -16,6 +15,8 @@ from coalition_agents.core.information import Entity, InformationInstance
 from coalition_agents.core.information_stream import InformationStream
 from coalition_agents.core.information_values import ValueUnavailable, evaluate
 
+from coalition_wire import Wire
+
 LEADER, HELPER, BYSTANDER = 'robot_blind', 'robot_helper', 'robot_bystander'
 # Ground truth of the scene: the helper (GPS) stands 2 m behind the blind robot, both facing +x;
 # the bystander 2 m to the blind robot's right, facing +y (towards it).
@@ -26,44 +27,6 @@ def relative(seen, observer):
     (x, y, _), (ox, oy, oyaw) = POSES[seen], POSES[observer]
     dx, dy = x - ox, y - oy
     return {'x': math.cos(-oyaw) * dx - math.sin(-oyaw) * dy, 'y': math.sin(-oyaw) * dx + math.cos(-oyaw) * dy}
-
-
-class Wire:
-    """Lossless in-memory transport; ``down`` robots neither receive nor answer."""
-
-    def __init__(self):
-        self.queue = collections.deque()
-        self.agents: dict[str, SchemaAgent] = {}
-        self.down: set[str] = set()
-
-    def outbox(self, robot):
-        wire = self
-
-        class Outbox:
-            def set_sensor(self, sensor, active):
-                pass
-
-            def send_request(self, request, recipients):
-                wire.queue.extend(('request', r, request, robot) for r in recipients)
-
-            def send_offer(self, offer, reply_to):
-                wire.queue.append(('offer', reply_to, offer, robot))
-        return Outbox()
-
-    def run(self, now):
-        for _ in range(50):
-            for name, agent in self.agents.items():
-                if name not in self.down:
-                    agent.tick(now)
-            if not self.queue:
-                return
-            while self.queue:
-                kind, recipient, payload, _ = self.queue.popleft()
-                if recipient in self.down:
-                    continue
-                agent = self.agents[recipient]
-                agent.on_request(payload, payload.requester) if kind == 'request' else agent.on_offer(payload)
-        raise AssertionError('messages did not stop')
 
 
 @pytest.fixture
