@@ -277,6 +277,9 @@ class SchemaAgent:
         self._answering: dict[tuple[InformationInstance, InformationInstance], bool] = {}
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
+        #: the last :meth:`_offer_view` (None: offers arrived since) and :meth:`_refresh_readings`
+        self._view: dict[InformationInstance, list[InformationOffer]] | None = None
+        self._sensed: dict[str, tuple[InformationInstance, ...]] = {}
         #: (request label, instance) -> the cheapest offer of it (what a reply uses)
         self._cheapest: dict[tuple[InformationInstance, InformationInstance], InformationOffer] = {}
         #: request label -> (provider, instance) -> (offer, members)
@@ -333,6 +336,7 @@ class SchemaAgent:
             return
         self.excluded = frozenset(exclude)
         self.offers.clear()
+        self._view = None
         self._cheapest.clear()
         self.reasoner.ledger.sent.clear()
         self._unregister_root()
@@ -382,6 +386,7 @@ class SchemaAgent:
                                   offer.members)
         cheapest = self._cheapest.get((offer.request, offer.instance))
         offers[key] = (received, offer.members)
+        self._view = None
         if cheapest is None or _offer_rank(received) < _offer_rank(cheapest):
             self._cheapest[(offer.request, offer.instance)] = received
         # What is no longer usable: the task's solutions use every offer (the replaced one is
@@ -404,7 +409,12 @@ class SchemaAgent:
         return self.sensing.current(now)
 
     def _offer_view(self) -> dict[InformationInstance, list[InformationOffer]]:
-        return {label: [offer for offer, _ in offers.values()] for label, offers in self.offers.items()}
+        """request label -> the offers received, as of now. The same object until an offer
+        arrives, so that the reasoner's candidate lists and indexes for it serve every slice and
+        every :meth:`coalitions` call in between."""
+        if self._view is None:
+            self._view = {label: [offer for offer, _ in offers.values()] for label, offers in self.offers.items()}
+        return self._view
 
     @staticmethod
     def _members_of(lcs: LocalCoalitionSolution) -> list[tuple[str, ...]]:
@@ -424,7 +434,9 @@ class SchemaAgent:
                 self._readings_used[sensor] = readings
                 for space, index in self._sensor_users.get(sensor, ()):
                     space.changes.stale.add(index)  # type: ignore[attr-defined]
-        return sensed
+        if sensed != self._sensed:
+            self._sensed = sensed  # else the same object as before (see _offer_view)
+        return self._sensed
 
     def pending(self) -> bool:
         """Whether a :meth:`tick` has work: self-requests, changed inputs or new subscribers."""
