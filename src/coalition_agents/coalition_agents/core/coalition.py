@@ -287,7 +287,6 @@ class RobotReasoner:
         self.potential_solution_limit = potential_solution_limit
         self.ledger = RequestLedger(self.robot)
         self._compiled: dict[int, _CompiledSolution] = {}
-        self._reply_spaces: dict[InformationInstance, SolutionSpace] = {}
         self._cache_view: tuple | None = None
         self._cache: dict = {}
 
@@ -334,13 +333,6 @@ class RobotReasoner:
         except InformationError as exc:
             raise RequestError(f'request.label: {exc}') from None
         return request_variants(request.label, self.robot)
-
-    def reply_space(self, variant: InformationInstance) -> SolutionSpace:
-        space = self._reply_spaces.get(variant)
-        if space is None:
-            space = self.generator.request_space(variant)
-            self._reply_spaces[variant] = space
-        return space
 
     def reply_solutions(self, variant: InformationInstance) -> list[PotentialSolution]:
         return self.generator.reply_solutions(variant, self.potential_solution_limit)
