@@ -310,13 +310,11 @@ class AgentChannel:
         self.inboxes[msg.recipient].publish(msg)
         self.batches_published += 1
 
-    def teammates_listening(self, presence_topic: Callable[[str], str] | None = None) -> int:
-        """How many teammates' agents subscribe to their inbox (their agent is up). With
-        ``presence_topic`` (teammate -> a topic its agent publishes) only a subscription by the
-        node publishing that topic counts: a bag recorder subscribes to every inbox too, before
-        the agents of another process are up."""
-        if presence_topic is None:
-            return sum(1 for publisher in self.inboxes.values() if publisher.get_subscription_count() > 0)
+    def teammates_listening(self, presence_topic: Callable[[str], str]) -> int:
+        """How many teammates' agents subscribe to their inbox (their agent is up): only a
+        subscription by the node publishing ``presence_topic(teammate)`` (a topic its agent
+        publishes) counts -- a bag recorder subscribes to every inbox too, before the agents of
+        another process are up."""
         count = 0
         for teammate, publisher in self.inboxes.items():
             if publisher.get_subscription_count() == 0:
