@@ -8,6 +8,7 @@ script can wait for it; others spin until shutdown.
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
@@ -27,7 +28,8 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
     rclpy.init(args=args)
     try:
         node = node_class()
-    except (ConfigurationError, *config_errors) as error:
+    except (ConfigurationError, ParameterException, *config_errors) as error:
+        # ParameterException: rclpy's own type/range check of a start-up value (a string for a double)
         rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2

@@ -1,7 +1,8 @@
 """The bridge's top-view camera as a node sees it: the newest frame and its geometry.
 
-Subscribes to the camera's latched topics (``/<camera>/image_raw``, ``camera_info``,
-``pose`` and, when asked, the per-pixel ``labels`` image and ``label_legend``), keeps the
+Subscribes to the camera's topics (``<camera>/image_raw``, ``camera_info`` and, when asked, the
+per-pixel ``labels`` image, with sensor-data QoS so a best-effort camera driver is accepted; the
+latched ``pose`` and ``label_legend``), keeps the
 newest of each and turns them into numpy images and a
 :class:`~collab_tools.core.camera_geometry.TopViewGeometry`. A frame is complete when the
 RGB image, intrinsics and pose are there and, with labels, the label image carries the
@@ -15,18 +16,16 @@ import numpy as np
 from bridge_interfaces.msg import LabelLegend
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from sensor_msgs.msg import CameraInfo, Image
 
 from .core.camera_geometry import TopViewGeometry
 from .images import image_array
-
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+from .qos import LATCHED, SENSOR_IN
 
 
 class TopCamera:
-    def __init__(self, node: Node, camera: str = 'top_camera', *, with_labels: bool = False,
+    def __init__(self, node: Node, camera: str = '/top_camera', *, with_labels: bool = False,
                  on_frame: Callable[[], None] | None = None):
         self._rgb: Image | None = None
         self._labels: Image | None = None
@@ -37,12 +36,13 @@ class TopCamera:
         self._on_frame = on_frame
         #: label -> (entity name, kind) from the legend (with_labels only)
         self.legend: dict[int, tuple[str, str]] = {}
+        # camera: the camera's namespace, absolute (a team-shared sensor: names.RobotNode.team('top_camera'))
         ns = '/' + camera.strip('/')
-        node.create_subscription(Image, f'{ns}/image_raw', self._on_rgb, LATCHED)
-        node.create_subscription(CameraInfo, f'{ns}/camera_info', self._on_info, LATCHED)
+        node.create_subscription(Image, f'{ns}/image_raw', self._on_rgb, SENSOR_IN)
+        node.create_subscription(CameraInfo, f'{ns}/camera_info', self._on_info, SENSOR_IN)
         node.create_subscription(PoseStamped, f'{ns}/pose', self._on_pose, LATCHED)
         if with_labels:
-            node.create_subscription(Image, f'{ns}/labels', self._on_labels, LATCHED)
+            node.create_subscription(Image, f'{ns}/labels', self._on_labels, SENSOR_IN)
             node.create_subscription(LabelLegend, f'{ns}/label_legend', self._on_legend, LATCHED)
 
     def _on_rgb(self, msg: Image) -> None:
