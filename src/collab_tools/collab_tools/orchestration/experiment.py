@@ -19,6 +19,20 @@
       # seconds: 10.0
 
 Strings may use {config} (the config/ directory) and {run_dir}.
+
+Where nodes run and how they find each other (all optional; see orchestration.network):
+
+    namespace: /sim1             # every node under /sim1; /clock, /tf, /tf_static remapped into it;
+                                 # topics in after_start/until resolve against it
+    discovery: {range: SUBNET}   # LOCALHOST (default) | SUBNET | OFF, static_peers, or server: HOST:PORT
+    domain_id: 42                # fixed ROS_DOMAIN_ID (needed when hosts run their parts separately)
+    discovery_timeout: 30        # s for every node to appear in the graph (else exit 4)
+    hosts: {arm_b: {netns: sgcm_b}, robot2: remote}
+    nodes:
+      - {package: sgcm, executable: follower_executor, namespace: /follower_arm, host: arm_b, ...}
+
+`scripts/orchestrate FILE --host robot2` on robot2 starts only robot2's nodes (same file,
+same domain_id) and runs until they exit or Ctrl-C.
 """
 
 import time
@@ -28,12 +42,16 @@ from typing import Any
 
 import yaml
 
+from ..names import check_namespace
+from .network import Discovery, NetworkConfigError, parse_hosts
 from .node_process import NodeSpec
-from .session import NodeExitedError, Session
+from .session import NodeExitedError, NodesNotDiscovered, Session
 
 NODE_FIELDS = {'package', 'executable', 'name', 'namespace', 'parameters', 'remappings',
-               'arguments', 'use_sim_time', 'log_level', 'required'}
-TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start', 'until'}
+               'arguments', 'use_sim_time', 'log_level', 'required', 'host'}
+TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start', 'until',
+              'namespace', 'discovery', 'domain_id', 'discovery_timeout', 'hosts'}
+DEFAULT_DISCOVERY_TIMEOUT = 30.0
 
 
 class ExperimentError(ValueError):
@@ -87,7 +105,8 @@ def parse_node(entry, path: str) -> NodeSpec:
                     parameters=parameters, remappings=entry.get('remappings', {}),
                     arguments=entry.get('arguments', []),
                     use_sim_time=bool(entry.get('use_sim_time', True)),
-                    log_level=entry.get('log_level'), required=bool(entry.get('required', True)))
+                    log_level=entry.get('log_level'), required=bool(entry.get('required', True)),
+                    host=entry.get('host'))
 
 
 def _field(msg, dotted: str):
@@ -118,24 +137,53 @@ def load_experiment(path: Path) -> dict:
     until = _require_mapping(data.get('until', {}), 'experiment.until')
     if len(until) != 1 or next(iter(until)) not in ('message', 'exit', 'seconds'):
         raise ExperimentError('experiment.until: exactly one of message, exit, seconds')
+    problem = check_namespace(data.get('namespace', '/'))
+    if problem:
+        raise ExperimentError(f'experiment.namespace: {problem}')
+    domain_id = data.get('domain_id')
+    if domain_id is not None and (isinstance(domain_id, bool) or not isinstance(domain_id, int)
+                                  or not 0 <= domain_id <= 232):
+        raise ExperimentError(f'experiment.domain_id: must be an integer in [0, 232] (got {domain_id!r})')
+    timeout = data.get('discovery_timeout', DEFAULT_DISCOVERY_TIMEOUT)
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= 3600:
+        raise ExperimentError(f'experiment.discovery_timeout: must be a number of seconds in (0, 3600]')
+    try:
+        data['discovery'] = Discovery.parse(data.get('discovery'), 'experiment.discovery')
+        data['hosts'] = parse_hosts(data.get('hosts'), 'experiment.hosts')
+    except NetworkConfigError as error:
+        raise ExperimentError(str(error)) from None
     return data
 
 
 def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
-                   overrides: dict[str, dict] | None = None, log=print) -> ExperimentResult:
-    """Run the experiment; every node's log and the bag end up in the run dir."""
+                   overrides: dict[str, dict] | None = None, log=print,
+                   host: str | None = None) -> ExperimentResult:
+    """Run the experiment; every node's log and the bag end up in the run dir.
+
+    host: run only that host's part (its nodes, until they exit or Ctrl-C) -- on a remote host.
+    """
     data = load_experiment(path)
+    if host is not None and host not in data['hosts']:
+        raise ExperimentError(f"--host {host}: the experiment defines no such host "
+                              f"(hosts: {', '.join(data['hosts']) or 'none'})")
     log = log or (lambda _text: None)
-    session = Session(data['name'], run_dir=run_dir, log=log)
-    names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
-    data = _substitute(data, names)
     specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
     for spec in specs:
-        # Parameter files are relative to the experiment file unless absolute.
-        spec.parameters = [p if isinstance(p, dict) or Path(p).is_absolute()
-                           else str(Path(path).parent / p) for p in spec.parameters]
-        if overrides and spec.label in overrides:
-            spec.parameters.append(overrides[spec.label])
+        if spec.host is not None and spec.host not in data['hosts']:
+            raise ExperimentError(f"experiment.nodes: {spec.label}: host '{spec.host}' is not defined "
+                                  f"(hosts: {', '.join(data['hosts']) or 'none'})")
+    session = Session(data['name'] + (f'-{host}' if host else ''), run_dir=run_dir, log=log,
+                      domain_id=data.get('domain_id'), namespace=data.get('namespace', '/'),
+                      discovery=data['discovery'], hosts=data['hosts'])
+    names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
+    for key in ('nodes', 'record', 'after_start', 'until'):
+        if key in data:
+            data[key] = _substitute(data[key], names)
+    specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
+    if host is not None:
+        return _run_host_part(session, [s for s in specs if s.host == host], path, overrides, log)
+    remote = {name for name, h in data['hosts'].items() if h.remote}
+    specs = _resolve_parameter_files(specs, path, overrides)
     timeout = float(data.get('timeout', 60.0))
     bag = None
     condition_met = False
@@ -148,10 +196,19 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             bag.parent.mkdir(parents=True, exist_ok=True)
             session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder',
                                    parameters=[{'output': str(bag),
-                                                'topics': record.get('topics') or ['']}]))
+                                                'topics': [session.resolve(t) for t in record.get('topics') or []]
+                                                or ['']}]))
         for spec in specs:
-            session.start(spec)
+            if spec.host not in remote:
+                session.start(spec)
         try:
+            expected = [session.node_namespace(spec).rstrip('/') + '/' + (spec.name or spec.executable)
+                         for spec in specs]
+            try:
+                session.wait_for_nodes(expected, float(data.get('discovery_timeout', DEFAULT_DISCOVERY_TIMEOUT)))
+            except NodesNotDiscovered as error:
+                session.not_discovered = error.missing
+                raise
             for index, step in enumerate(data.get('after_start') or []):
                 _run_step(session, step, f'experiment.after_start[{index}]')
             condition_met = _wait_until(session, data['until'], timeout)
@@ -162,11 +219,38 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                 condition_met, message = True, 'completion condition met'
             else:
                 message = str(error)
-        except TimeoutError as error:
+        except (TimeoutError, NodesNotDiscovered) as error:
             message = str(error)
         session.condition_met = condition_met
         log(f'[experiment] {data["name"]}: {message}')
     return ExperimentResult(session.run_dir, session.exit_code(), condition_met, bag, message)
+
+
+def _resolve_parameter_files(specs: list[NodeSpec], path: Path, overrides) -> list[NodeSpec]:
+    for spec in specs:
+        # Parameter files are relative to the experiment file unless absolute.
+        spec.parameters = [p if isinstance(p, dict) or Path(p).is_absolute()
+                           else str(Path(path).parent / p) for p in spec.parameters]
+        if overrides and spec.label in overrides:
+            spec.parameters.append(overrides[spec.label])
+    return specs
+
+
+def _run_host_part(session: Session, specs: list[NodeSpec], path: Path, overrides, log) -> ExperimentResult:
+    """One remote host's nodes: started here, kept until they all exit (or Ctrl-C)."""
+    with session:
+        for spec in _resolve_parameter_files(specs, path, overrides):
+            session.start(spec)
+        try:
+            while any(p.poll() is None for p in session.nodes.values()):
+                session.check_alive()
+                time.sleep(0.2)
+            session.condition_met = True
+            message = 'every node of this host exited'
+        except NodeExitedError as error:
+            message = str(error)
+        log(f'[experiment] {session.label}: {message}')
+    return ExperimentResult(session.run_dir, session.exit_code(), bool(session.condition_met), None, message)
 
 
 def _run_step(session: Session, step, path: str) -> None:

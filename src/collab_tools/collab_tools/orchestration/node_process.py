@@ -30,6 +30,8 @@ class NodeSpec:
     env: dict[str, str] = field(default_factory=dict)
     # A required node that exits before the session ends fails the session.
     required: bool = True
+    # The session host the node runs on (orchestration.network); None: where the orchestrator runs.
+    host: str | None = None
 
     @property
     def label(self) -> str:

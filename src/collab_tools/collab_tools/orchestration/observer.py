@@ -64,9 +64,12 @@ class GraphObserver:
             if not matched and (predicate is None or predicate(msg)):
                 matched.append(msg)
 
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
-                                     else DurabilityPolicy.VOLATILE))
+        # Latched: the last sample from a transient-local publisher. Otherwise best effort, which
+        # matches reliable and best-effort (sensor-data) publishers alike.
+        qos = (QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL) if latched
+               else QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                               durability=DurabilityPolicy.VOLATILE))
         subscription = self.node.create_subscription(msg_type, topic, on_message, qos)
         try:
             self._wait(lambda: bool(matched), timeout, f'a matching message on {topic}', check)
@@ -86,6 +89,10 @@ class GraphObserver:
             return future.result()
         finally:
             self.node.destroy_client(client)
+
+    def node_names(self) -> set[str]:
+        """Full names (/namespace/name) of the nodes in the graph now."""
+        return {(ns.rstrip('/') + '/' + name) for name, ns in self.node.get_node_names_and_namespaces()}
 
     def close(self) -> None:
         self._stop.set()

@@ -7,7 +7,14 @@
     # every node stopped (SIGINT, escalating), logs in session.run_dir/logs/
 
 Exit codes for scripts built on a session (see exit_code()):
-  0 success, 1 completion condition not met in time, 3 a node failed.
+  0 success, 1 completion condition not met in time, 3 a node failed, 4 a node was never
+  discovered (a discovery setting that does not reach it).
+
+A session may have a namespace (``Session('sim1', namespace='/sim1')``): every node starts
+under it (a node's own namespace is joined below it), ``/clock``, ``/tf`` and ``/tf_static`` are
+remapped into it, and the names a script waits for or calls are resolved against it, so two
+simulations share one ROS domain without hearing each other. ``discovery`` and ``hosts`` (see
+:mod:`.network`) say how nodes find each other and where they run.
 """
 
 import json
@@ -19,13 +26,29 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from ..names import join
 from .domain import acquire_domain
+from .network import Discovery, Host, NetworkConfigError
 from .node_process import NodeProcess, NodeSpec, build_command
 
 EXIT_OK = 0
 EXIT_CONDITION_NOT_MET = 1
 EXIT_USAGE = 2
 EXIT_NODE_FAILED = 3
+EXIT_NOT_DISCOVERED = 4
+
+#: Absolute names every node of a namespaced session has remapped into the session's namespace.
+GLOBAL_TOPICS = ('/clock', '/tf', '/tf_static')
+
+
+class NodesNotDiscovered(RuntimeError):
+    """Nodes that were started (here or on another host) never appeared in the ROS graph."""
+
+    def __init__(self, missing: list[str], timeout: float, discovery: Discovery):
+        self.missing = missing
+        super().__init__(f"{len(missing)} node(s) never discovered within {timeout:g} s with discovery "
+                         f"{discovery.describe()}: {', '.join(missing)} (check the discovery setting and "
+                         'that every host runs its part)')
 
 
 class NodeExitedError(RuntimeError):
@@ -63,8 +86,13 @@ def new_run_dir(label: str, root: Path | None = None) -> Path:
 class Session:
 
     def __init__(self, label: str, run_dir: Path | None = None, domain_id: int | None = None,
-                 stop_timeout: float = 10.0, log: Callable[[str], None] | None = print):
+                 stop_timeout: float = 10.0, log: Callable[[str], None] | None = print,
+                 namespace: str = '/', discovery: Discovery | None = None,
+                 hosts: dict[str, Host] | None = None):
         self.label = label
+        self.namespace = join(namespace)
+        self.discovery = discovery or Discovery()
+        self.hosts = dict(hosts or {})
         self.run_dir = Path(run_dir) if run_dir else new_run_dir(label)
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.stop_timeout = stop_timeout
@@ -75,6 +103,7 @@ class Session:
         self.nodes: dict[str, NodeProcess] = {}
         self.started = time.monotonic()
         self.condition_met: bool | None = None
+        self.not_discovered: list[str] = []
 
     # --- lifecycle ----------------------------------------------------------------
     def __enter__(self) -> 'Session':
@@ -105,9 +134,11 @@ class Session:
 
     def environment(self, extra: dict[str, str] | None = None) -> dict[str, str]:
         env = dict(os.environ)
+        for name in self.discovery.unset:
+            env.pop(name, None)
+        env.update(self.discovery.environment())
         env.update({
             'ROS_DOMAIN_ID': str(self.domain_id),
-            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
             'ROS_LOG_DIR': str(self.run_dir / 'logs' / 'ros'),
             'PYTHONUNBUFFERED': '1',
             'RCUTILS_COLORIZED_OUTPUT': '0',
@@ -118,15 +149,43 @@ class Session:
         return env
 
     # --- nodes ------------------------------------------------------------------------
+    def resolve(self, name: str) -> str:
+        """A topic or service name of the experiment as it is in this session's namespace."""
+        return join(self.namespace, name)
+
+    def node_namespace(self, spec: NodeSpec) -> str:
+        return join(self.namespace, spec.namespace or '/')
+
     def start(self, spec: NodeSpec) -> NodeProcess:
         if spec.label in self.nodes:
             raise ValueError(f"a node named '{spec.label}' is already part of this session")
+        host = None
+        if spec.host is not None:
+            host = self.hosts.get(spec.host)
+            if host is None:
+                raise NetworkConfigError(f"node {spec.label}: host '{spec.host}' is not defined "
+                                         f"(hosts: {', '.join(self.hosts) or 'none'})")
+        if self.namespace != '/':
+            spec = _in_namespace(spec, self.namespace)
         command = build_command(spec, self.run_dir / 'params')
+        if host is not None:
+            command = host.wrap(command)
         process = NodeProcess(spec, command, self.environment(spec.env),
                               self.run_dir / 'logs' / f'{spec.label}.log')
         self.nodes[spec.label] = process
-        self._log(f'[session] started {spec.label} (pid {process.popen.pid})')
+        where = f' on {host.name}' if host is not None else ''
+        self._log(f'[session] started {spec.label}{where} (pid {process.popen.pid})')
         return process
+
+    def wait_for_nodes(self, names: list[str], timeout: float) -> None:
+        """Wait until every node full name in `names` is in the graph; NodesNotDiscovered if not."""
+        from .observer import ConditionTimeout
+        try:
+            self.observer._wait(lambda: set(names) <= self.observer.node_names(), timeout,
+                                'nodes to be discovered', self.check_alive)
+        except ConditionTimeout:
+            missing = sorted(set(names) - self.observer.node_names())
+            raise NodesNotDiscovered(missing, timeout, self.discovery) from None
 
     def check_alive(self) -> None:
         """Raise NodeExitedError if a required node has ended."""
@@ -153,18 +212,31 @@ class Session:
     def observer(self):
         if self._observer is None:
             from .observer import GraphObserver  # rclpy only when a condition needs it
-            self._observer = GraphObserver(self.domain_id, f'orchestrator_{os.getpid()}')
+            # The observer discovers like the nodes do (rcl reads these at init).
+            saved = {name: os.environ.get(name) for name in
+                     (*self.discovery.environment(), *self.discovery.unset)}
+            for name in self.discovery.unset:
+                os.environ.pop(name, None)
+            os.environ.update(self.discovery.environment())
+            try:
+                self._observer = GraphObserver(self.domain_id, f'orchestrator_{os.getpid()}')
+            finally:
+                for name, value in saved.items():
+                    if value is None:
+                        os.environ.pop(name, None)
+                    else:
+                        os.environ[name] = value
         return self._observer
 
     def wait_for_message(self, topic: str, type_name: str,
                          predicate: Callable[[Any], bool] | None = None,
                          timeout: float = 30.0, latched: bool = False) -> Any:
-        return self.observer.wait_for_message(topic, type_name, predicate, timeout, latched,
+        return self.observer.wait_for_message(self.resolve(topic), type_name, predicate, timeout, latched,
                                               check=self.check_alive)
 
     def call_service(self, service: str, type_name: str, request: Any = None,
                      timeout: float = 30.0) -> Any:
-        return self.observer.call_service(service, type_name, request, timeout,
+        return self.observer.call_service(self.resolve(service), type_name, request, timeout,
                                           check=self.check_alive)
 
     def wait_for_exit(self, name: str, timeout: float) -> int:
@@ -187,6 +259,8 @@ class Session:
     def exit_code(self) -> int:
         if self.failed_nodes():
             return EXIT_NODE_FAILED
+        if self.not_discovered:
+            return EXIT_NOT_DISCOVERED
         if self.condition_met is False:
             return EXIT_CONDITION_NOT_MET
         return EXIT_OK
@@ -197,6 +271,9 @@ class Session:
             'domain_id': self._lease.domain_id if self._lease else None,
             'duration_s': round(time.monotonic() - self.started, 3),
             'condition_met': self.condition_met,
+            'namespace': self.namespace,
+            'discovery': self.discovery.describe(),
+            'not_discovered': self.not_discovered,
             'error': None if exc is None else f'{type(exc).__name__}: {exc}',
             'nodes': {
                 name: {
@@ -208,6 +285,14 @@ class Session:
             },
         }
         (self.run_dir / 'session.json').write_text(json.dumps(summary, indent=2))
+
+
+def _in_namespace(spec: NodeSpec, namespace: str) -> NodeSpec:
+    """`spec` moved below `namespace`, with the absolute ROS-wide topics remapped into it."""
+    from dataclasses import replace
+    remappings = {name: join(namespace, name) for name in GLOBAL_TOPICS}
+    remappings.update(spec.remappings)
+    return replace(spec, namespace=join(namespace, spec.namespace or '/'), remappings=remappings)
 
 
 def _raise_keyboard_interrupt(signum, frame):
