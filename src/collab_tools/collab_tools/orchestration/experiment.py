@@ -147,12 +147,16 @@ def load_experiment(path: Path) -> dict:
     timeout = data.get('discovery_timeout', DEFAULT_DISCOVERY_TIMEOUT)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= 3600:
         raise ExperimentError(f'experiment.discovery_timeout: must be a number of seconds in (0, 3600]')
+    _network(data)  # checked here; the file's data stays plain (callers edit and re-dump it)
+    return data
+
+
+def _network(data: dict) -> tuple[Discovery, dict]:
     try:
-        data['discovery'] = Discovery.parse(data.get('discovery'), 'experiment.discovery')
-        data['hosts'] = parse_hosts(data.get('hosts'), 'experiment.hosts')
+        return (Discovery.parse(data.get('discovery'), 'experiment.discovery'),
+                parse_hosts(data.get('hosts'), 'experiment.hosts'))
     except NetworkConfigError as error:
         raise ExperimentError(str(error)) from None
-    return data
 
 
 def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
@@ -163,18 +167,19 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
     host: run only that host's part (its nodes, until they exit or Ctrl-C) -- on a remote host.
     """
     data = load_experiment(path)
-    if host is not None and host not in data['hosts']:
+    discovery, hosts = _network(data)
+    if host is not None and host not in hosts:
         raise ExperimentError(f"--host {host}: the experiment defines no such host "
-                              f"(hosts: {', '.join(data['hosts']) or 'none'})")
+                              f"(hosts: {', '.join(hosts) or 'none'})")
     log = log or (lambda _text: None)
     specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
     for spec in specs:
-        if spec.host is not None and spec.host not in data['hosts']:
+        if spec.host is not None and spec.host not in hosts:
             raise ExperimentError(f"experiment.nodes: {spec.label}: host '{spec.host}' is not defined "
-                                  f"(hosts: {', '.join(data['hosts']) or 'none'})")
+                                  f"(hosts: {', '.join(hosts) or 'none'})")
     session = Session(data['name'] + (f'-{host}' if host else ''), run_dir=run_dir, log=log,
                       domain_id=data.get('domain_id'), namespace=data.get('namespace', '/'),
-                      discovery=data['discovery'], hosts=data['hosts'])
+                      discovery=discovery, hosts=hosts)
     names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
     for key in ('nodes', 'record', 'after_start', 'until'):
         if key in data:
@@ -182,7 +187,7 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
     specs = [parse_node(entry, f'experiment.nodes[{i}]') for i, entry in enumerate(data['nodes'])]
     if host is not None:
         return _run_host_part(session, [s for s in specs if s.host == host], path, overrides, log)
-    remote = {name for name, h in data['hosts'].items() if h.remote}
+    remote = {name for name, h in hosts.items() if h.remote}
     specs = _resolve_parameter_files(specs, path, overrides)
     timeout = float(data.get('timeout', 60.0))
     bag = None
