@@ -1,47 +1,45 @@
-"""scripted_driver node: plays a timed velocity plan on /<robot>/cmd_vel.
+"""scripted_driver node: plays a timed velocity plan on <robot>/cmd_vel (relative to its namespace).
 
 Stands in for a planner before one exists (and drives the demo and tests). Time is
 the node clock, so with use_sim_time the plan follows the simulation. When every
 segment has played it publishes zero commands and `~/done` (latched) = true.
+``command_rate`` can change while it plays (the command timer is re-created).
 """
 
 import sys
 
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 
 from .core.drive_plan import PlanError, load_plan
 from .node_support import run
+from .parameters import NodeParameters
+from .qos import COMMAND_OUT, LATCHED
 
 
 class ScriptedDriver(Node):
 
     def __init__(self):
         super().__init__('scripted_driver')
-        self.declare_parameter('plan_file', '')
-        self.declare_parameter('command_rate', 20.0)
-        plan_file = self.get_parameter('plan_file').value
-        if not plan_file:
-            raise PlanError('parameter plan_file: required (path to a drive plan YAML)')
+        params = NodeParameters(self)
+        plan_file = params.declare('plan_file', '', 'drive plan YAML (config/plans/*.yaml)', required=True)
+        rate = params.declare('command_rate', 20.0, 'Hz at which commands are published (of the node clock)',
+                              low=0.0, high=1000.0, low_open=True, on_change=self._set_rate)
         self.plan = load_plan(plan_file)
-        rate = self.get_parameter('command_rate').value
-        if not 0.0 < rate <= 1000.0:
-            raise PlanError(f'parameter command_rate: must be in (0, 1000] Hz (got {rate})')
-
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.cmd_pubs = {robot: self.create_publisher(Twist, f'/{robot}/cmd_vel', qos)
+        self.cmd_pubs = {robot: self.create_publisher(Twist, f'{robot}/cmd_vel', COMMAND_OUT)
                          for robot in self.plan.robots}
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.done_pub = self.create_publisher(Bool, '~/done', latched)
+        self.done_pub = self.create_publisher(Bool, '~/done', LATCHED)
         self.done_pub.publish(Bool(data=False))
         self.start_time = None
         self.done = False
         self.timer = self.create_timer(1.0 / rate, self._on_timer)
         self.get_logger().info(f'playing a {self.plan.duration:.1f} s plan for '
                                f'{", ".join(self.plan.robots)}')
+
+    def _set_rate(self, rate: float) -> None:
+        self.destroy_timer(self.timer)
+        self.timer = self.create_timer(1.0 / rate, self._on_timer)
 
     def _on_timer(self) -> None:
         now = self.get_clock().now().nanoseconds * 1e-9

@@ -35,6 +35,19 @@ def test_domain_ids_are_exclusive_until_released():
     second.release()
 
 
+def test_a_shared_domain_excludes_only_exclusive_leases():
+    first = acquire_domain(90, shared=True)
+    second = acquire_domain(90, shared=True)
+    with pytest.raises(DomainUnavailableError, match='in use'):
+        acquire_domain(90)
+    first.release()
+    second.release()
+    exclusive = acquire_domain(90)
+    with pytest.raises(DomainUnavailableError, match='in use'):
+        acquire_domain(90, shared=True)
+    exclusive.release()
+
+
 def test_domain_id_out_of_range_is_refused():
     with pytest.raises(DomainUnavailableError, match='domain_id'):
         acquire_domain(0)

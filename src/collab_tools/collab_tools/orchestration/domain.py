@@ -48,26 +48,32 @@ def _lock_dir() -> Path:
     return path
 
 
-def _try_lock(domain_id: int):
+def _try_lock(domain_id: int, shared: bool = False):
     lock_file = open(_lock_dir() / f'{domain_id}.lock', 'a+')
     try:
-        fcntl.flock(lock_file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(lock_file, (fcntl.LOCK_SH if shared else fcntl.LOCK_EX) | fcntl.LOCK_NB)
     except BlockingIOError:
         lock_file.close()
         return None
     return lock_file
 
 
-def acquire_domain(requested: int | None = None, seed: int | None = None) -> DomainLease:
-    """Lease `requested`, or the first free id from a random start when None."""
+def acquire_domain(requested: int | None = None, seed: int | None = None,
+                   shared: bool = False) -> DomainLease:
+    """Lease `requested`, or the first free id from a random start when None.
+
+    shared: several sessions that mean to meet in `requested` (two namespaced simulations, the
+    parts of a multi-host experiment) hold it together; an exclusive lease excludes them all.
+    """
     if requested is not None:
         if not FIRST_DOMAIN_ID <= requested <= LAST_DOMAIN_ID:
             raise DomainUnavailableError(
                 f'domain_id: must be in [{FIRST_DOMAIN_ID}, {LAST_DOMAIN_ID}] (got {requested})')
-        lock_file = _try_lock(requested)
+        lock_file = _try_lock(requested, shared)
         if lock_file is None:
             raise DomainUnavailableError(
-                f'domain_id: {requested} is in use by another session on this machine')
+                f'domain_id: {requested} is in use by another session on this machine'
+                + ('' if shared else ' (sessions that share a domain must all ask to share it)'))
         return DomainLease(requested, lock_file)
 
     ids = list(range(FIRST_DOMAIN_ID, LAST_DOMAIN_ID + 1))

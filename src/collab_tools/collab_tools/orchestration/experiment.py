@@ -25,7 +25,8 @@ Where nodes run and how they find each other (all optional; see orchestration.ne
     namespace: /sim1             # every node under /sim1; /clock, /tf, /tf_static remapped into it;
                                  # topics in after_start/until resolve against it
     discovery: {range: SUBNET}   # LOCALHOST (default) | SUBNET | OFF, static_peers, or server: HOST:PORT
-    domain_id: 42                # fixed ROS_DOMAIN_ID (needed when hosts run their parts separately)
+    domain_id: 42                # fixed ROS_DOMAIN_ID, shared with the experiment's other parts (and any
+                                 # other session that fixes it); default: an exclusive free one
     discovery_timeout: 30        # s for every node to appear in the graph (else exit 4)
     hosts: {arm_b: {netns: sgcm_b}, robot2: remote}
     nodes:
@@ -179,7 +180,9 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                                   f"(hosts: {', '.join(hosts) or 'none'})")
     session = Session(data['name'] + (f'-{host}' if host else ''), run_dir=run_dir, log=log,
                       domain_id=data.get('domain_id'), namespace=data.get('namespace', '/'),
-                      discovery=discovery, hosts=hosts)
+                      discovery=discovery, hosts=hosts,
+                      # A fixed domain is where the experiment's parts (and other runs) meet.
+                      share_domain=data.get('domain_id') is not None)
     names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
     for key in ('nodes', 'record', 'after_start', 'until'):
         if key in data:

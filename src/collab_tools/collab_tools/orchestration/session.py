@@ -88,7 +88,7 @@ class Session:
     def __init__(self, label: str, run_dir: Path | None = None, domain_id: int | None = None,
                  stop_timeout: float = 10.0, log: Callable[[str], None] | None = print,
                  namespace: str = '/', discovery: Discovery | None = None,
-                 hosts: dict[str, Host] | None = None):
+                 hosts: dict[str, Host] | None = None, share_domain: bool = False):
         self.label = label
         self.namespace = join(namespace)
         self.discovery = discovery or Discovery()
@@ -97,6 +97,7 @@ class Session:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.stop_timeout = stop_timeout
         self._requested_domain = domain_id
+        self._share_domain = share_domain
         self._lease = None
         self._observer = None
         self._log = log or (lambda _text: None)
@@ -107,7 +108,7 @@ class Session:
 
     # --- lifecycle ----------------------------------------------------------------
     def __enter__(self) -> 'Session':
-        self._lease = acquire_domain(self._requested_domain)
+        self._lease = acquire_domain(self._requested_domain, shared=self._share_domain)
         self._previous_sigterm = signal.getsignal(signal.SIGTERM)
         # A terminated orchestrator still stops its nodes (via __exit__).
         signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
