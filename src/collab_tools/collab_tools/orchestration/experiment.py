@@ -36,6 +36,7 @@ Where nodes run and how they find each other (all optional; see orchestration.ne
 same domain_id) and runs until they exit or Ctrl-C.
 """
 
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,10 +203,12 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             record = _require_mapping(record, 'experiment.record')
             bag = session.run_dir / 'bags' / str(record.get('bag', data['name']))
             bag.parent.mkdir(parents=True, exist_ok=True)
-            session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder',
-                                   parameters=[{'output': str(bag),
-                                                'topics': [session.resolve(t) for t in record.get('topics') or []]
-                                                or ['']}]))
+            recorder = {'output': str(bag),
+                        'topics': [session.resolve(t) for t in record.get('topics') or []] or ['']}
+            if session.namespace != '/' and not record.get('topics'):
+                # "Everything" of a namespaced session: its own topics, not a neighbour's.
+                recorder['exclude'] = ['/rosout', '/parameter_events', f'(?!{re.escape(session.namespace)}/).*']
+            session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder', parameters=[recorder]))
         for spec in specs:
             if spec.host not in remote:
                 session.start(spec)
