@@ -70,3 +70,14 @@ def test_session_resolves_names_and_sets_discovery(tmp_path):
         env = session.environment()
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET'
     assert env['ROS_DOMAIN_ID'].isdigit()
+
+
+def test_session_started_discovery_server_commands():
+    discovery = Discovery.parse({'server': ['127.0.0.1:11811', '127.0.0.1:11812'], 'start_server': True})
+    assert discovery.server_commands() == [
+        ['fastdds', 'discovery', '-i', '0', '-l', '127.0.0.1', '-p', '11811'],
+        ['fastdds', 'discovery', '-i', '1', '-l', '127.0.0.1', '-p', '11812']]
+    assert discovery.environment()['ROS_DISCOVERY_SERVER'] == '127.0.0.1:11811;127.0.0.1:11812'
+    assert Discovery.parse({'server': '10.0.0.1:11811'}).server_commands() == []
+    with pytest.raises(NetworkConfigError, match='start_server'):
+        Discovery.parse({'start_server': True})

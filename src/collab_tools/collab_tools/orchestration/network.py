@@ -6,6 +6,7 @@ Discovery (one per session, every node and the orchestrator's own observer use i
     discovery: {range: SUBNET}                          # multicast on the local subnet
     discovery: {range: LOCALHOST, static_peers: [192.168.1.12]}   # unicast to named peers
     discovery: {server: '10.0.0.1:11811'}              # a Fast DDS discovery server
+    discovery: {server: '127.0.0.1:11811', start_server: true}   # ... that the session starts
 
 With a discovery server every process is started as a *super client* (``ROS_SUPER_CLIENT``):
 a plain client only learns the endpoints it matches, so the recorder (which subscribes to what
@@ -41,6 +42,7 @@ class Discovery:
     range: str = 'LOCALHOST'
     static_peers: tuple[str, ...] = ()
     servers: tuple[str, ...] = ()
+    start_server: bool = False
 
     @classmethod
     def parse(cls, data, path: str = 'discovery') -> 'Discovery':
@@ -50,9 +52,10 @@ class Discovery:
             data = {'range': data}
         if not isinstance(data, dict):
             raise NetworkConfigError(f'{path}: must be a mapping (range, static_peers, server)')
-        unknown = sorted(set(data) - {'range', 'static_peers', 'server'})
+        unknown = sorted(set(data) - {'range', 'static_peers', 'server', 'start_server'})
         if unknown:
-            raise NetworkConfigError(f'{path}.{unknown[0]}: unknown field (allowed: range, server, static_peers)')
+            raise NetworkConfigError(f'{path}.{unknown[0]}: unknown field '
+                                     '(allowed: range, server, start_server, static_peers)')
         servers = data.get('server', ())
         servers = (servers,) if isinstance(servers, str) else tuple(servers or ())
         for server in servers:
@@ -67,7 +70,22 @@ class Discovery:
             peers = (peers,)
         if not isinstance(peers, (list, tuple)) or not all(isinstance(p, str) and _SERVER.match(p) for p in peers):
             raise NetworkConfigError(f'{path}.static_peers: must be a list of host names or addresses')
-        return cls(range_, tuple(peers), servers)
+        start_server = data.get('start_server', False)
+        if not isinstance(start_server, bool):
+            raise NetworkConfigError(f'{path}.start_server: must be true or false')
+        if start_server and not servers:
+            raise NetworkConfigError(f'{path}.start_server: needs server: HOST:PORT (where to listen)')
+        return cls(range_, tuple(peers), servers, start_server)
+
+    def server_commands(self) -> list[list[str]]:
+        """`fastdds discovery` command lines for the servers this session starts itself."""
+        if not self.start_server:
+            return []
+        commands = []
+        for index, server in enumerate(self.servers):
+            host, _, port = server.partition(':')
+            commands.append(['fastdds', 'discovery', '-i', str(index), '-l', host, '-p', port or '11811'])
+        return commands
 
     def environment(self) -> dict[str, str]:
         """The ROS environment variables that select this discovery (None-valued: unset)."""

@@ -105,6 +105,7 @@ class Session:
         self.started = time.monotonic()
         self.condition_met: bool | None = None
         self.not_discovered: list[str] = []
+        self._servers: list[NodeProcess] = []
 
     # --- lifecycle ----------------------------------------------------------------
     def __enter__(self) -> 'Session':
@@ -112,12 +113,20 @@ class Session:
         self._previous_sigterm = signal.getsignal(signal.SIGTERM)
         # A terminated orchestrator still stops its nodes (via __exit__).
         signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
-        self._log(f'[session] {self.label}: ROS_DOMAIN_ID={self.domain_id}, run dir {self.run_dir}')
+        self._log(f'[session] {self.label}: ROS_DOMAIN_ID={self.domain_id}, discovery '
+                  f'{self.discovery.describe()}, run dir {self.run_dir}')
+        try:
+            self._start_discovery_servers()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
         try:
             self.stop_all()
+            for server in self._servers:
+                server.stop(self.stop_timeout)
         finally:
             if self._observer is not None:
                 self._observer.close()
@@ -150,6 +159,22 @@ class Session:
         return env
 
     # --- nodes ------------------------------------------------------------------------
+    def _start_discovery_servers(self) -> None:
+        from .observer import ConditionTimeout
+        for index, command in enumerate(self.discovery.server_commands()):
+            spec = NodeSpec('fastdds', 'discovery', name=f'discovery_server_{index}', use_sim_time=False)
+            server = NodeProcess(spec, command, self.environment(), self.run_dir / 'logs' / f'{spec.name}.log')
+            self._servers.append(server)
+            # The server prints its GUID prefix once it listens; clients that start earlier retry anyway.
+            deadline = time.monotonic() + 10.0
+            while 'Server is running' not in server.log_path.read_text(errors='replace'):
+                if server.poll() is not None:
+                    raise NodeExitedError(server)
+                if time.monotonic() > deadline:
+                    raise ConditionTimeout(f'discovery server {self.discovery.servers[index]} did not start')
+                time.sleep(0.05)
+            self._log(f'[session] discovery server {self.discovery.servers[index]} running (pid {server.popen.pid})')
+
     def resolve(self, name: str) -> str:
         """A topic or service name of the experiment as it is in this session's namespace."""
         return join(self.namespace, name)
