@@ -4,6 +4,7 @@ import time
 
 from bridge_interfaces.srv import StepSimulation
 from geometry_msgs.msg import Twist
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
 
 from collab_tools.orchestration.node_process import NodeSpec
@@ -50,6 +51,37 @@ def drive(session, publisher, linear, angular, seconds, chunk=0.25):
         response = step(session, int(round(chunk * PHYSICS_HZ)))
         assert response.success, response.message
         elapsed += chunk
+
+
+def collect(ros_node, msg_type, topic, timeout=10.0, latched=False):
+    """Subscribe and return the list the messages are appended to, once the bridge's publisher matched.
+
+    Best effort (the bridge's sensors and camera are sensor data) unless `latched`; a deep
+    history keeps everything a fast-stepped bridge sends.
+    """
+    received = []
+    qos = (QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL) if latched
+           else QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+    subscription = ros_node.create_subscription(msg_type, topic, received.append, qos)
+    deadline = time.monotonic() + timeout
+    while subscription.get_publisher_count() == 0:
+        assert time.monotonic() < deadline, f'nobody publishes {topic}'
+        time.sleep(0.05)
+    return received
+
+
+def settle(received, at_least=1, timeout=5.0):
+    """Wait until ``received`` holds ``at_least`` messages (then a little longer for stragglers)."""
+    deadline = time.monotonic() + timeout
+    while len(received) < at_least and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    return list(received)
+
+
+def stamp_seconds(msg):
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 
 
 def wait_for_subscriber(publisher, timeout=10.0):

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 from bridge_interfaces.srv import ResetScenario
 from geometry_msgs.msg import Twist
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
 
-from bridge_helpers import (body_pose, bridge_spec, drive, set_paused, step,
+from bridge_helpers import (body_pose, bridge_spec, collect, drive, set_paused, settle, stamp_seconds, step,
                             wait_for_subscriber)
 
 PIONEER_MAX_LINEAR = 1.2  # m/s, built-in pioneer_3dx limit
@@ -29,7 +31,10 @@ def test_cmd_vel_moves_robot_as_commanded_and_camera_sees_it(bridge, ros_node):
     cmd = ros_node.create_publisher(Twist, '/robot_1/cmd_vel', 10)
     wait_for_subscriber(cmd)
     x0, y0, _ = body_pose(bridge, 'robot_1')
-    before = bridge.wait_for_message('/top_camera/image_raw', 'sensor_msgs/msg/Image', latched=True)
+    # The camera is sensor data (best effort, no history): listen, then step to the next frame.
+    images = collect(ros_node, Image, '/top_camera/image_raw')
+    assert step(bridge, 24).success  # 0.1 s: the 10 Hz camera renders a frame
+    before = settle(images)[-1]
 
     drive(bridge, cmd, 0.4, 0.0, seconds=2.0)
     x1, y1, body = body_pose(bridge, 'robot_1')
@@ -39,9 +44,12 @@ def test_cmd_vel_moves_robot_as_commanded_and_camera_sees_it(bridge, ros_node):
     assert abs(y1 - y0) < 0.02
     assert body.twist.linear.x == pytest.approx(0.4, abs=0.02)
 
+    count = len(images)
     step(bridge, 48)  # let a new camera frame render (10 Hz camera)
-    after = bridge.wait_for_message('/top_camera/image_raw', 'sensor_msgs/msg/Image', latched=True)
+    after = settle(images, at_least=count + 1)[-1]
+    assert stamp_seconds(after) > stamp_seconds(before) + 2.0
     assert after.encoding == 'rgb8' and (after.width, after.height) == (160, 160)
+    assert after.header.frame_id == 'top_camera_optical_frame'
     changed = np.any(image_array(before) != image_array(after), axis=2)
     assert changed.sum() > 20, 'the camera image did not change after the robot moved'
 
@@ -62,7 +70,9 @@ def test_velocity_limit_and_command_timeout(bridge, ros_node):
 
 
 def test_rotation_follows_angular_command(bridge, ros_node):
-    cmd = ros_node.create_publisher(Twist, '/robot_1/cmd_vel', 10)
+    # A best-effort publisher, as many teleop tools are: the bridge listens best effort.
+    cmd = ros_node.create_publisher(Twist, '/robot_1/cmd_vel',
+                                    QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
     wait_for_subscriber(cmd)
     drive(bridge, cmd, 0.0, 1.0, seconds=1.5)
     _, _, body = body_pose(bridge, 'robot_1')
@@ -126,10 +136,9 @@ def test_running_simulation_publishes_clock_and_labels(bridge, ros_node):
         predicate=lambda m: m.clock.sec + m.clock.nanosec * 1e-9
         > first.clock.sec + first.clock.nanosec * 1e-9 + 0.5)
     assert later is not None
-    labels = bridge.wait_for_message('/top_camera/labels', 'sensor_msgs/msg/Image', latched=True)
+    labels = bridge.wait_for_message('/top_camera/labels', 'sensor_msgs/msg/Image')
     assert labels.encoding == '16UC1'
     pixels = np.frombuffer(bytes(labels.data), dtype=np.uint16).reshape(labels.height, labels.width)
     assert (pixels == robot_label).sum() > 20
-    info = bridge.wait_for_message('/top_camera/camera_info', 'sensor_msgs/msg/CameraInfo',
-                                   latched=True)
+    info = bridge.wait_for_message('/top_camera/camera_info', 'sensor_msgs/msg/CameraInfo')
     assert info.k[0] > 0 and info.width == labels.width

@@ -1,16 +1,17 @@
-"""Robots' simulated sensors over ROS: switched by /<robot>/set_sensor_active, published while active."""
+"""Robots' simulated sensors over ROS: switched by /<robot>/set_sensor_active, published while active.
+
+The sensors are sensor data (best effort): the tests subscribe best effort (bridge_helpers.collect).
+"""
 
 import math
-import time
 
 import pytest
 from bridge_interfaces.msg import BumperState, FiducialDetections
 from bridge_interfaces.srv import ResetScenario, SetSensorActive
 from geometry_msgs.msg import PoseWithCovarianceStamped
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 
-from bridge_helpers import PHYSICS_HZ, bridge_spec, step
+from bridge_helpers import PHYSICS_HZ, bridge_spec, collect, settle, step
 
 PIONEER_RADIUS = 0.23
 
@@ -21,27 +22,6 @@ def bridge(session, config_dir):
     session.wait_for_message('/pybullet_bridge/status', 'bridge_interfaces/msg/SimulationStatus',
                              timeout=30.0)
     return session
-
-
-def collect(ros_node, msg_type, topic, timeout=10.0):
-    """Subscribe and return the list the messages are appended to, once the bridge's publisher matched."""
-    received = []
-    subscription = ros_node.create_subscription(
-        msg_type, topic, received.append, QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
-    deadline = time.monotonic() + timeout
-    while subscription.get_publisher_count() == 0:
-        assert time.monotonic() < deadline, f'nobody publishes {topic}'
-        time.sleep(0.05)
-    return received
-
-
-def settle(received, at_least=1, timeout=5.0):
-    """Wait until ``received`` holds ``at_least`` messages (then a little longer for stragglers)."""
-    deadline = time.monotonic() + timeout
-    while len(received) < at_least and time.monotonic() < deadline:
-        time.sleep(0.05)
-    time.sleep(0.3)
-    return list(received)
 
 
 def set_active(session, robot, sensor, active):
@@ -60,7 +40,7 @@ def test_fiducial_switched_on_reports_names_and_ranges(bridge, ros_node):
     messages = settle(received, at_least=5)
     assert 5 <= len(messages) <= 6
     msg = messages[-1]
-    assert msg.header.frame_id == 'robot_1/base_link'
+    assert msg.header.frame_id == 'robot_1/fiducial_link'
     assert (msg.field_of_view, msg.max_range) == pytest.approx((math.pi, 4.0))
     # test_sensors.yaml: robot_2 2 m straight ahead, target_1 at 45 deg left; robot_3 behind the wall.
     by_name = {d.name: d for d in msg.detections}
@@ -86,7 +66,7 @@ def test_laser_bumper_and_gps_topics(bridge, ros_node):
     assert step(bridge, PHYSICS_HZ // 4).success
     scan = settle(scans)[-1]
     assert len(scan.ranges) == 181 and scan.angle_min == pytest.approx(-math.pi / 2)
-    assert scan.header.frame_id == 'robot_1/base_link'
+    assert scan.header.frame_id == 'robot_1/laser_link'
     # The middle beam looks along +x at robot_2 (centre 2 m ahead).
     assert scan.ranges[90] == pytest.approx(2.0 - PIONEER_RADIUS, abs=1e-3)
     bump = settle(bumps)[-1]

@@ -1,5 +1,7 @@
 """A bad scenario or parameter stops the bridge at start with a message naming the field."""
 
+from dataclasses import replace
+
 import pytest
 
 from bridge_helpers import bridge_spec
@@ -11,7 +13,9 @@ CAMERA = 'camera: {rate: 10.0, width: 64, height: 64, altitude: 4.0, fov_deg: 45
 def start_and_wait_for_exit(session, scenario_text, tmp_path, **params):
     path = tmp_path / 'scenario.yaml'
     path.write_text(scenario_text)
-    process = session.start(bridge_spec(path, **params))
+    spec = bridge_spec(path)
+    spec.parameters[0].update(params)  # may replace the scenario too
+    process = session.start(spec)
     code = session.wait_for_exit('pybullet_bridge', timeout=60.0)
     return code, process.log_path.read_text()
 
@@ -29,9 +33,31 @@ def test_bad_scenario_names_the_field(session, tmp_path, scenario_text, field):
     assert field + ':' in log
 
 
-def test_bad_parameter_names_the_parameter(session, tmp_path):
-    code, log = start_and_wait_for_exit(
-        session, 'name: t\n' + CAMERA + 'mobile_robots:\n  - ' + GOOD_ROBOT + '\n', tmp_path,
-        real_time_factor=-1.0)
+GOOD_SCENARIO = 'name: t\n' + CAMERA + 'mobile_robots:\n  - ' + GOOD_ROBOT + '\n'
+
+
+@pytest.mark.parametrize('params, expected', [
+    ({'real_time_factor': -1.0}, ['real_time_factor', 'range']),           # rclpy's range check
+    ({'real_time_factor': 'fast'}, ['real_time_factor']),                  # a string for a double
+    ({'control_period': 0.0}, ['parameter control_period', '(0, 1]']),     # open bound: ours
+    ({'status_rate': 5000.0}, ['status_rate', 'range']),
+    ({'scenario': ''}, ['parameter scenario: required']),
+])
+def test_bad_parameter_names_the_parameter(session, tmp_path, params, expected):
+    code, log = start_and_wait_for_exit(session, GOOD_SCENARIO, tmp_path, **params)
     assert code == 2
-    assert 'parameter real_time_factor' in log
+    for text in expected:
+        assert text in log
+    assert 'Traceback' not in log
+
+
+def test_use_sim_time_is_refused_at_once(session, tmp_path):
+    """The bridge is the clock source: with use_sim_time it would wait for its own /clock for ever."""
+    path = tmp_path / 'scenario.yaml'
+    path.write_text(GOOD_SCENARIO)
+    spec = replace(bridge_spec(path), use_sim_time=True)
+    process = session.start(spec)
+    code = session.wait_for_exit('pybullet_bridge', timeout=60.0)
+    log = process.log_path.read_text()
+    assert code == 2
+    assert 'use_sim_time' in log and 'clock source' in log

@@ -1,4 +1,6 @@
-"""ROS face of the arms: the /<arm>/pick_and_place action and /<arm>/joint_states.
+"""ROS face of the arms: the <arm>/pick_and_place action and <arm>/joint_states.
+
+Both names are relative to the node's namespace; joint states are sensor data (best effort).
 
 Goals are always accepted at goal time and judged by the core when they start: a bad
 goal (unknown object, malformed region, out of reach, arm busy) ends at once with
@@ -29,10 +31,11 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
+
+from collab_tools.qos import SENSOR_OUT
 
 from .core.arm import Arm, Outcome, PickPlaceTask
 from .entity_adapters import EntityAdapter, RejectFn, register_adapter
@@ -54,7 +57,7 @@ class _RunningGoal:
 
 
 class _PickAndPlaceServer:
-    """The /<arm>/pick_and_place action server of one arm name on one node."""
+    """The <arm>/pick_and_place action server of one arm name on one node."""
 
     _by_node: weakref.WeakKeyDictionary[Node, dict[str, _PickAndPlaceServer]] = weakref.WeakKeyDictionary()
 
@@ -68,7 +71,7 @@ class _PickAndPlaceServer:
     def __init__(self, node: Node, arm_name: str):
         self.node = node
         self.arm_name = arm_name
-        self.action_name = f'/{arm_name}/pick_and_place'
+        self.action_name = f'{arm_name}/pick_and_place'
         self.adapter: ArmAdapter | None = None
         self.running: _RunningGoal | None = None
         self._orphan_timer = None
@@ -183,12 +186,11 @@ class _PickAndPlaceServer:
 
 
 class ArmAdapter(EntityAdapter):
-    """Serves /<arm>/pick_and_place and publishes /<arm>/joint_states."""
+    """Serves <arm>/pick_and_place and publishes <arm>/joint_states."""
 
     def __init__(self, node: Node, entity: Arm, reject: RejectFn):
         super().__init__(node, entity, reject)
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.joint_state_pub = node.create_publisher(JointState, f'/{entity.name}/joint_states', reliable)
+        self.joint_state_pub = node.create_publisher(JointState, f'{entity.name}/joint_states', SENSOR_OUT)
         self._ros_objects.append(self.joint_state_pub)
         self._next_joint_state = 0.0
         self.action = _PickAndPlaceServer.for_arm(node, entity.name)
@@ -204,6 +206,9 @@ class ArmAdapter(EntityAdapter):
             # Same rate as the ground truth (simulated time).
             self._next_joint_state = sim_time + 1.0 / self.node.ground_truth_rate
             self.publish_joint_state(sim_time)
+
+    def on_rate_change(self, sim_time: float) -> None:
+        self._next_joint_state = min(self._next_joint_state, sim_time + 1.0 / self.node.ground_truth_rate)
 
     def publish_feedback(self, running: _RunningGoal) -> None:
         task = running.task

@@ -1,12 +1,21 @@
 """pybullet_bridge node: runs the scene and exposes it on ROS.
 
-Publishes /clock (simulated time), the top-view camera (image, labels, info, pose,
-label legend) and ground-truth body states; drives robots from their command topics
-through entity adapters; serves reset, pause and step. All simulation lives in
-pybullet_bridge.core; this node only converts and paces.
+Publishes /clock (simulated time), /tf and /tf_static (tf_adapter.py), the top-view camera
+(image, labels, info, pose, label legend) and ground-truth body states; drives robots from
+their command topics through entity adapters; serves reset, pause and step. All simulation
+lives in pybullet_bridge.core; this node only converts and paces.
+
+Names: everything but /clock, /tf and /tf_static is relative to the node's namespace
+(``<robot>/cmd_vel``, ``<camera>/image_raw``, ``ground_truth/bodies``, ``~/status``), so
+``-r __ns:=/sim1`` moves the whole simulation. QoS (collab_tools.qos): camera images, labels,
+camera info and robot sensors are sensor data (best effort), the label legend, camera pose
+and ground truth latched, cmd_vel accepted from best-effort publishers.
+
+Parameters: real_time_factor, publish_camera, ground_truth_rate and status_rate change at
+run time (``ros2 param set``); the others are read-only. The bridge is the clock source, so
+``use_sim_time:=true`` is refused at start (exit 2).
 """
 
-import math
 import sys
 import time
 
@@ -15,19 +24,22 @@ from bridge_interfaces.msg import BodyLabel, BodyState, BodyStates, LabelLegend,
 from bridge_interfaces.srv import ResetScenario, StepSimulation
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import CameraInfo, Image
-from collab_tools.node_support import ConfigurationError, run
 from std_srvs.srv import SetBool
 
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
+from collab_tools.qos import LATCHED, RELIABLE, SENSOR_OUT
+
 from .core.errors import ScenarioError
+from .core.frames import optical_frame, robot_transforms, static_transforms
 from .core.scenario import load_scenario
 from .core.scene import Scene
 from .entity_adapters import create_adapters
+from .tf_adapter import TfPublisher
 from . import arm_adapter  # noqa: F401  (registers the arms' adapter)
 from . import sensor_adapter  # noqa: F401  (registers the robots' adapter with their sensors)
 
@@ -35,6 +47,7 @@ MAX_STEPS_PER_REQUEST = 100_000
 # Ticks run at most this far behind wall-clock pacing before the bridge gives up
 # catching up (a slow machine then just runs below the requested real-time factor).
 MAX_CATCH_UP_TICKS = 10
+MAX_RATE = 1000.0
 
 
 def to_time_msg(seconds: float) -> Time:
@@ -46,53 +59,47 @@ class PybulletBridge(Node):
 
     def __init__(self):
         super().__init__('pybullet_bridge')
+        self.params = NodeParameters(self)
+        self.params.refuse_use_sim_time('the bridge is the clock source: it publishes /clock')
         self._declare_parameters()
-        self.scenario_path = self._param('scenario')
-        if self.scenario_path == '':
-            raise ConfigurationError('parameter scenario: required (path to a scenario YAML)')
-        self.real_time_factor = self._param('real_time_factor')
-        self.control_period = self._param('control_period')
-        self.ground_truth_rate = self._param('ground_truth_rate')
-        self.status_rate = self._param('status_rate')
-        self.publish_camera = self._param('publish_camera')
-        self._check_parameters()
+        self.scenario_path = self.params['scenario']
+        self.real_time_factor = self.params['real_time_factor']
+        self.control_period = self.params['control_period']
+        self.ground_truth_rate = self.params['ground_truth_rate']
+        self.status_rate = self.params['status_rate']
+        self.publish_camera = self.params['publish_camera']
 
         try:
             scenario = load_scenario(self.scenario_path)
         except ScenarioError as error:
             raise ConfigurationError(f'scenario {self.scenario_path}: {error}') from None
         self.scene = Scene(scenario)
-        self.paused = bool(self._param('start_paused'))
+        self.paused = self.params['start_paused']
         self.rejected_messages = 0
         self.adapters = []
 
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        # Ground truth and camera keep their latest sample for late joiners, so a paused
-        # simulation can still be inspected.
-        latest = latched
-        self.clock_pub = self.create_publisher(ClockMsg, '/clock', reliable)
-        self.bodies_pub = self.create_publisher(BodyStates, '/ground_truth/bodies', latest)
-        self.status_pub = self.create_publisher(SimulationStatus, '~/status', reliable)
-        camera_ns = '/' + scenario.camera.frame_id
-        self.image_pub = self.create_publisher(Image, f'{camera_ns}/image_raw', latest)
-        self.labels_pub = self.create_publisher(Image, f'{camera_ns}/labels', latest)
-        self.info_pub = self.create_publisher(CameraInfo, f'{camera_ns}/camera_info', latest)
-        self.legend_pub = self.create_publisher(LabelLegend, f'{camera_ns}/label_legend', latched)
-        self.camera_pose_pub = self.create_publisher(PoseStamped, f'{camera_ns}/pose', latched)
+        self.clock_pub = self.create_publisher(ClockMsg, '/clock', RELIABLE)
+        # Ground truth keeps its latest sample for late joiners, so a paused simulation can
+        # still be inspected; the camera is a sensor (best effort, no history).
+        self.bodies_pub = self.create_publisher(BodyStates, 'ground_truth/bodies', LATCHED)
+        self.status_pub = self.create_publisher(SimulationStatus, '~/status', RELIABLE)
+        self.tf = TfPublisher(self)
+        camera_ns = scenario.camera.frame_id
+        self.image_pub = self.create_publisher(Image, f'{camera_ns}/image_raw', SENSOR_OUT)
+        self.labels_pub = self.create_publisher(Image, f'{camera_ns}/labels', SENSOR_OUT)
+        self.info_pub = self.create_publisher(CameraInfo, f'{camera_ns}/camera_info', SENSOR_OUT)
+        self.legend_pub = self.create_publisher(LabelLegend, f'{camera_ns}/label_legend', LATCHED)
+        self.camera_pose_pub = self.create_publisher(PoseStamped, f'{camera_ns}/pose', LATCHED)
 
         self.create_service(ResetScenario, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(StepSimulation, '~/step', self._on_step)
 
         self._on_scene_loaded()
-        # Pacing: a timer per control tick; with real_time_factor 0 it fires back to back.
-        period = self.control_period / self.real_time_factor if self.real_time_factor > 0 else 0.0
-        self.timer = self.create_timer(period, self._on_timer)
-        # Status runs on the wall clock: it must report a paused or stalled simulation too.
-        self.status_timer = self.create_timer(1.0 / self.status_rate, self._publish_status,
-                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.timer = None
+        self._start_pacing_timer()
+        self.status_timer = None
+        self._start_status_timer()
         self.get_logger().info(
             f"running scenario '{scenario.name}' ({len(self.scene.entities)} entities), "
             f'physics dt {self.scene.physics_dt:.5f} s, control period '
@@ -102,44 +109,58 @@ class PybulletBridge(Node):
 
     # --- parameters -------------------------------------------------------------------
     def _declare_parameters(self) -> None:
-        def declare(name, default, description):
-            # Dynamic typing: a YAML `0` for a float parameter gets our clear error
-            # from _check_parameters instead of an rclpy type exception.
-            self.declare_parameter(name, default, ParameterDescriptor(
-                description=description, dynamic_typing=True))
-
-        declare('scenario', '', 'path to the scenario YAML (see README: scenario files)')
-        declare('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible')
+        declare = self.params.declare
+        declare('scenario', '', 'path to the scenario YAML (see README: scenario files)', required=True)
+        declare('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible',
+                low=0.0, high=1000.0, on_change=self._set_real_time_factor)
         declare('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '
-                'rounded to a whole number of physics steps')
-        declare('ground_truth_rate', 20.0, 'Hz of simulated time for /ground_truth/bodies')
-        declare('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)')
-        declare('publish_camera', True, 'render and publish the top-view camera')
+                'rounded to a whole number of physics steps', low=0.0, high=1.0, low_open=True)
+        declare('ground_truth_rate', 20.0, 'Hz of simulated time for ground_truth/bodies, /tf and the '
+                "arms' joint_states", low=0.0, high=MAX_RATE, low_open=True,
+                on_change=self._set_ground_truth_rate)
+        declare('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
+                low=0.0, high=MAX_RATE, low_open=True, on_change=self._set_status_rate)
+        declare('publish_camera', True, 'render and publish the top-view camera',
+                on_change=self._set_publish_camera)
         declare('start_paused', False, 'start paused; advance with ~/step or ~/pause false')
 
-    def _param(self, name):
-        return self.get_parameter(name).value
+    def _set_real_time_factor(self, value: float) -> None:
+        self.real_time_factor = value
+        self._start_pacing_timer()
+        self.get_logger().info(f'real-time factor {value or "as fast as possible"}')
 
-    def _check_parameters(self) -> None:
-        def number(name, low, high, low_open):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value) or value > high \
-                    or (value <= low if low_open else value < low):
-                bracket = '(' if low_open else '['
-                raise ConfigurationError(
-                    f'parameter {name}: must be a number in {bracket}{low}, {high}] (got {value!r})')
-            setattr(self, name, float(value))
+    def _set_ground_truth_rate(self, value: float) -> None:
+        self.ground_truth_rate = value
+        # A lower rate takes effect after the sample already scheduled; a higher one at once.
+        self.next_ground_truth_time = min(self.next_ground_truth_time, self.scene.sim_time + 1.0 / value)
+        for adapter in self.adapters:
+            adapter.on_rate_change(self.scene.sim_time)
 
-        number('real_time_factor', 0.0, 1000.0, low_open=False)
-        number('control_period', 0.0, 1.0, low_open=True)
-        number('ground_truth_rate', 0.0, 1000.0, low_open=True)
-        number('status_rate', 0.0, 1000.0, low_open=True)
-        if not isinstance(self.scenario_path, str):
-            raise ConfigurationError(f'parameter scenario: must be a path string (got {self.scenario_path!r})')
-        for name in ('publish_camera',):
-            if not isinstance(getattr(self, name), bool):
-                raise ConfigurationError(f'parameter {name}: must be true or false')
+    def _set_status_rate(self, value: float) -> None:
+        self.status_rate = value
+        self._start_status_timer()
+
+    def _set_publish_camera(self, value: bool) -> None:
+        if value and not self.publish_camera:
+            self.next_camera_time = self.scene.sim_time  # a frame on the next tick
+        self.publish_camera = value
+        self.get_logger().info('camera ' + ('on' if value else 'off'))
+
+    def _start_pacing_timer(self) -> None:
+        """(Re)start the tick timer for the current real-time factor; pacing re-anchors."""
+        if self.timer is not None:
+            self.destroy_timer(self.timer)
+        self._pace_reference = None
+        # A timer per control tick; with real_time_factor 0 it fires back to back.
+        period = self.control_period / self.real_time_factor if self.real_time_factor > 0 else 0.0
+        self.timer = self.create_timer(period, self._on_timer)
+
+    def _start_status_timer(self) -> None:
+        if self.status_timer is not None:
+            self.destroy_timer(self.status_timer)
+        # Status runs on the wall clock: it must report a paused or stalled simulation too.
+        self.status_timer = self.create_timer(1.0 / self.status_rate, self._publish_status,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- scene lifecycle ----------------------------------------------------------------
     def _on_scene_loaded(self) -> None:
@@ -159,7 +180,7 @@ class PybulletBridge(Node):
         scenario = self.scene.scenario
         legend = LabelLegend()
         legend.header.stamp = to_time_msg(self.scene.sim_time)
-        legend.header.frame_id = scenario.camera.frame_id
+        legend.header.frame_id = optical_frame(scenario.camera.frame_id)
         legend.entries = [BodyLabel(label=label, name=name, kind=kind)
                           for label, name, kind in self.scene.label_legend()]
         self.legend_pub.publish(legend)
@@ -172,6 +193,9 @@ class PybulletBridge(Node):
         (pose.pose.orientation.x, pose.pose.orientation.y,
          pose.pose.orientation.z, pose.pose.orientation.w) = map(float, quaternion)
         self.camera_pose_pub.publish(pose)
+        self.tf.publish_static(static_transforms(scenario.world.frame_id, self.scene.entities,
+                                                 scenario.camera.frame_id, position, quaternion),
+                               legend.header.stamp)
 
     def reject(self, source: str, reason: str) -> None:
         """Log and count a malformed input that was dropped."""
@@ -228,7 +252,8 @@ class PybulletBridge(Node):
         msg = BodyStates()
         msg.header.stamp = stamp
         msg.header.frame_id = self.scene.scenario.world.frame_id
-        for body in self.scene.body_states():
+        bodies = self.scene.body_states()
+        for body in bodies:
             state = BodyState(name=body.name, kind=body.kind, label=body.label)
             p, q = state.pose.position, state.pose.orientation
             p.x, p.y, p.z = map(float, body.position)
@@ -238,11 +263,12 @@ class PybulletBridge(Node):
             w.x, w.y, w.z = map(float, body.angular_velocity)
             msg.bodies.append(state)
         self.bodies_pub.publish(msg)
+        self.tf.publish(robot_transforms(msg.header.frame_id, bodies), stamp)
 
     def _publish_camera(self, stamp: Time) -> None:
         frame = self.scene.render()
         camera = self.scene.camera
-        frame_id = self.scene.scenario.camera.frame_id
+        frame_id = optical_frame(self.scene.scenario.camera.frame_id)
         self.image_pub.publish(self._image_msg(frame.rgb, 'rgb8', stamp, frame_id))
         self.labels_pub.publish(self._image_msg(frame.labels, '16UC1', stamp, frame_id))
         info = CameraInfo()

@@ -13,10 +13,11 @@ from geometry_msgs.msg import Twist
 from rclpy.client import Client
 from rclpy.node import Node
 from rclpy.publisher import Publisher
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.service import Service
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
+
+from collab_tools.qos import SENSOR_IN
 
 from .core.mobile_robot import MobileRobot
 from .core.scene import SceneEntity
@@ -36,6 +37,9 @@ class EntityAdapter:
 
     def on_tick(self, sim_time: float) -> None:
         """Called after every control tick of the simulation."""
+
+    def on_rate_change(self, sim_time: float) -> None:
+        """Called when the node's ground_truth_rate changed (parameter set at run time)."""
 
     def destroy(self) -> None:
         # Through the node, not obj.destroy(): the node must also drop them (and their
@@ -73,14 +77,16 @@ def create_adapters(node: Node, entities, reject: RejectFn) -> list[EntityAdapte
 
 
 class MobileRobotAdapter(EntityAdapter):
-    """/<robot>/cmd_vel (geometry_msgs/Twist) -> differential-drive command."""
+    """<robot>/cmd_vel (geometry_msgs/Twist, relative to the node's namespace) -> drive command.
+
+    Subscribed best effort (SENSOR_IN), so a best-effort teleop is heard as well as a reliable one.
+    """
 
     def __init__(self, node: Node, entity: MobileRobot, reject: RejectFn):
         super().__init__(node, entity, reject)
-        self.topic = f'/{entity.name}/cmd_vel'
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        self.topic = f'{entity.name}/cmd_vel'
         self._ros_objects.append(
-            node.create_subscription(Twist, self.topic, self._on_cmd_vel, qos))
+            node.create_subscription(Twist, self.topic, self._on_cmd_vel, SENSOR_IN))
 
     def _on_cmd_vel(self, msg: Twist) -> None:
         values = (msg.linear.x, msg.angular.z)

@@ -1,18 +1,19 @@
 """ROS face of the robots' simulated sensors (core/sensors.py).
 
-Replaces the plain mobile-robot adapter: a robot keeps its ``/<robot>/cmd_vel`` and,
+Replaces the plain mobile-robot adapter: a robot keeps its ``<robot>/cmd_vel`` and,
 when its scenario entry lists ``sensors``, also gets
 
-* ``/<robot>/fiducials`` (bridge_interfaces/FiducialDetections),
-* ``/<robot>/scan`` (sensor_msgs/LaserScan),
-* ``/<robot>/gps`` (geometry_msgs/PoseWithCovarianceStamped, world frame),
-* ``/<robot>/bumper`` (bridge_interfaces/BumperState),
+* ``<robot>/fiducials`` (bridge_interfaces/FiducialDetections, frame ``<robot>/fiducial_link``),
+* ``<robot>/scan`` (sensor_msgs/LaserScan, frame ``<robot>/laser_link``),
+* ``<robot>/gps`` (geometry_msgs/PoseWithCovarianceStamped, world frame),
+* ``<robot>/bumper`` (bridge_interfaces/BumperState, frame ``<robot>/bumper_link``),
 
-one per configured sensor, each published at its rate in simulated time while the
-sensor is active, and the service ``/<robot>/set_sensor_active``
-(bridge_interfaces/SetSensorActive) that switches a sensor on or off. Sensor frames
-are ``<robot>/base_link``. A scene reset recreates the adapters, so every sensor goes
-back to its configured ``active`` state.
+one per configured sensor (names relative to the node's namespace), each published as
+sensor data (best effort) at its rate in simulated time while the sensor is active, and the
+service ``<robot>/set_sensor_active`` (bridge_interfaces/SetSensorActive) that switches a
+sensor on or off. The sensor links sit at ``<robot>/base_link`` (/tf_static, core/frames.py).
+A scene reset recreates the adapters, so every sensor goes back to its configured ``active``
+state.
 """
 
 from __future__ import annotations
@@ -21,10 +22,12 @@ from bridge_interfaces.msg import BumperContact, BumperState, FiducialDetection,
 from bridge_interfaces.srv import SetSensorActive
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
+from collab_tools.qos import SENSOR_OUT
+
+from .core.frames import sensor_frame
 from .core.mobile_robot import MobileRobot, yaw_quaternion
 from .core.sensor_config import BUMPER, FIDUCIAL, GPS, LASER
 from .core.sensors import BumperReading, FiducialReading, GpsReading, LaserReading, RobotSensors
@@ -45,13 +48,11 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
         if entity.sensors is None:
             return
         self.sensors = RobotSensors(node.scene, entity)
-        self.frame_id = f'{entity.name}/base_link'
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
         for name in self.sensors.names:
-            publisher = node.create_publisher(MESSAGE_TYPES[name], f'/{entity.name}/{TOPICS[name]}', qos)
+            publisher = node.create_publisher(MESSAGE_TYPES[name], f'{entity.name}/{TOPICS[name]}', SENSOR_OUT)
             self.publishers[name] = publisher
             self._ros_objects.append(publisher)
-        self.service_name = f'/{entity.name}/set_sensor_active'
+        self.service_name = f'{entity.name}/set_sensor_active'
         self._ros_objects.append(node.create_service(SetSensorActive, self.service_name, self._on_set_active))
 
     def on_tick(self, sim_time: float) -> None:
@@ -73,7 +74,7 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
         response.success = True
         state = 'active' if request.active else 'inactive'
         response.message = (f"{self.entity.name}: sensor '{request.sensor}' is {state}"
-                            + (f' (publishing on /{self.entity.name}/{TOPICS[request.sensor]})'
+                            + (f' (publishing on {self.entity.name}/{TOPICS[request.sensor]})'
                                if request.active else ''))
         return response
 
@@ -82,7 +83,7 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
     def _to_message(self, reading):
         if isinstance(reading, FiducialReading):
             msg = FiducialDetections(field_of_view=reading.field_of_view, max_range=reading.max_range)
-            msg.header.frame_id = self.frame_id
+            msg.header.frame_id = sensor_frame(self.entity.name, FIDUCIAL)
             msg.detections = [FiducialDetection(name=d.name, kind=d.kind, range=float(d.range),
                                                 bearing=float(d.bearing), x=float(d.x), y=float(d.y),
                                                 yaw=float(d.yaw))
@@ -94,7 +95,7 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
                             angle_increment=reading.angle_increment, time_increment=0.0, scan_time=period,
                             range_min=float(reading.range_min), range_max=float(reading.range_max),
                             ranges=[float(r) for r in reading.ranges])
-            msg.header.frame_id = self.frame_id
+            msg.header.frame_id = sensor_frame(self.entity.name, LASER)
             return msg
         if isinstance(reading, GpsReading):
             msg = PoseWithCovarianceStamped()
@@ -114,7 +115,7 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
             msg = BumperState(pressed=reading.pressed,
                               contacts=[BumperContact(name=c.name, kind=c.kind, bearing=float(c.bearing))
                                         for c in reading.contacts])
-            msg.header.frame_id = self.frame_id
+            msg.header.frame_id = sensor_frame(self.entity.name, BUMPER)
             return msg
         raise TypeError(f'no message for sensor reading {type(reading).__name__}')
 
