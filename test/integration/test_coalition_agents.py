@@ -11,6 +11,7 @@ conversion (LiveSensing) into the in-process CoalitionSearch.
 import math
 import re
 import time
+from dataclasses import dataclass
 
 import pytest
 import yaml
@@ -23,6 +24,21 @@ from coalition_agents.core.live_sensing import LiveSensing
 
 LEADER, HELPER, BYSTANDER = 'robot_blind', 'robot_helper', 'robot_bystander'
 STATUS = 'coalition_interfaces/msg/AgentStatus'
+
+
+@dataclass
+class AgentSpec(NodeSpec):
+    """A schema_agent in its robot's namespace (/<robot>/schema_agent). Its session label names the
+    robot too: every agent's node name is schema_agent, and a session's labels must be unique."""
+
+    @property
+    def label(self) -> str:
+        return f"{self.namespace.strip('/')}.{self.name}"
+
+
+def agent_spec(robot: str, params: dict, **options) -> AgentSpec:
+    return AgentSpec('coalition_agents', 'schema_agent', name='schema_agent', namespace=f'/{robot}',
+                     parameters=[params], **options)
 
 
 @pytest.fixture
@@ -66,18 +82,18 @@ def start_team(session, files, config_dir, loss):
     scenario = config_dir / 'scenarios' / 'coalition_three_robots.yaml'
     session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
                               ground_truth_rate=1.0))
+    processes = {}
     for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
-        params = {**files, 'robot': robot, 'task': 'navigation' if robot == LEADER else 'none',
+        params = {**files, 'task': 'navigation' if robot == LEADER else 'none',
                   'team_task': 'navigation', 'loss_probability': loss, 'seed': 100 + index, 'search_time': 3.0}
-        session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'schema_agent_{robot}',
-                               parameters=[params]))
-    return scenario
+        processes[robot] = session.start(agent_spec(robot, params))
+    return scenario, processes
 
 
 @pytest.mark.parametrize('loss', [0.0, 0.2])
 def test_robot_without_localisation_forms_its_least_cost_coalition(session, files, config_dir, loss):
     wall_start = time.monotonic()
-    scenario = start_team(session, files, config_dir, loss)
+    scenario, agents = start_team(session, files, config_dir, loss)
     expected = expected_best(files, scenario)
     assert expected is not None
     # A malformed message on the channel (unknown information type) is dropped with a message.
@@ -103,10 +119,10 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
     assert bystander.state != 'committed' and bystander.coalition_id == ''
     # Nobody held two commitments: each agent logs every commitment it took.
     for robot in (LEADER, HELPER, BYSTANDER):
-        log = (session.run_dir / 'logs' / f'schema_agent_{robot}.log').read_text()
+        log = agents[robot].log_path.read_text()
         committed = re.findall(r'committed to coalition (\S+)|coalition (\S+) established', log)
         assert len(committed) <= 1, f'{robot} committed twice: {committed}'
-    leader_log = session.run_dir / 'logs' / f'schema_agent_{LEADER}.log'
+    leader_log = agents[LEADER].log_path
     deadline = time.monotonic() + 10.0  # the log is written by another process
     while 'dropped malformed channel message' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed message was not reported by the leader'
@@ -120,16 +136,18 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
 def test_bad_parameters_and_files_stop_the_agent_with_a_message(session, files, tmp_path):
     bad = tmp_path / 'caps.yaml'
     bad.write_text('robot_types: {t: {sensors: [{name: gps, provides: [F_Q(local)]}]}}\nrobots: {robot_blind: t}\n')
-    cases = [({**files, 'robot': 'robot_blind', 'capability_file': str(bad)}, 'parameter capability_file:'),
-             ({**files, 'robot': 'robot_nobody'}, "parameter robot: 'robot_nobody' is not in"),
-             ({**files, 'robot': LEADER, 'task': 'teleport'}, "parameter task: unknown task 'teleport'"),
-             ({**files, 'robot': HELPER}, "parameter team_task: required when task is 'none'"),
-             ({**files, 'robot': LEADER, 'task': 'navigation', 'loss_probability': 1.5},
-              'parameter loss_probability: must be a number in [0, 1]')]
-    for index, (params, expected) in enumerate(cases):
-        process = session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'bad_agent_{index}',
-                                         parameters=[params], required=False))
-        assert session.wait_for_exit(f'bad_agent_{index}', timeout=60.0) == 2
+    cases = [('robot_blind', {**files, 'capability_file': str(bad)}, 'parameter capability_file:'),
+             ('robot_nobody', files, "robot 'robot_nobody' is not in the capability file's robots"),
+             (LEADER, {**files, 'task': 'teleport'}, "parameter task: unknown task 'teleport'"),
+             (HELPER, files, "parameter team_task: required when task is 'none'"),
+             (LEADER, {**files, 'task': 'navigation', 'loss_probability': 1.5},
+              'Parameter loss_probability out of range Min: 0.0, Max: 1.0'),
+             (LEADER, {**files, 'robot': HELPER, 'task': 'navigation'},
+              f"parameter robot: '{HELPER}' differs from the node's namespace /{LEADER}")]
+    for index, (robot, params, expected) in enumerate(cases):
+        process = session.start(AgentSpec('coalition_agents', 'schema_agent', name=f'bad_agent_{index}',
+                                          namespace=f'/{robot}', parameters=[params], required=False))
+        assert session.wait_for_exit(process.name, timeout=60.0) == 2
         assert expected in process.log_path.read_text(), process.log_path.read_text()
 
 
@@ -153,16 +171,18 @@ def start_navigation_team(session, config_dir, loss):
     + 1.6 s = 3 s; the leader still negotiates as soon as its coalition has settled."""
     session.start(bridge_spec(config_dir / 'scenarios' / 'coalition_boxpush.yaml', real_time_factor=1.0,
                               start_paused=False, publish_camera=False, ground_truth_rate=5.0))
+    processes = {}
     for index, robot in enumerate((NAV_LEADER, SPARE_A, SPARE_B)):
-        params = {**boxpush_files(config_dir), 'robot': robot, 'task': 'navigation' if robot == NAV_LEADER else 'none',
+        params = {**boxpush_files(config_dir), 'task': 'navigation' if robot == NAV_LEADER else 'none',
                   'team_task': 'navigation', 'loss_probability': loss, 'seed': 200 + index, 'search_time': 6.0,
                   'team_wait': 3.0, 'reform_timeout': 1.5, 'stream_timeout': 1.0, 'goal_position': [1.0, -3.0]}
-        session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'schema_agent_{robot}', parameters=[params]))
+        processes[robot] = session.start(agent_spec(robot, params))
+    return processes
 
 
 @pytest.mark.parametrize('loss', [0.0, 0.2])
 def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stops(session, config_dir, loss):
-    start_navigation_team(session, config_dir, loss)
+    agents = start_navigation_team(session, config_dir, loss)
     first = session.wait_for_message(f'/{NAV_LEADER}/coalition', STATUS, latched=True, timeout=60.0,
                                      predicate=lambda m: m.state in ('committed', 'failed'))
     assert first.state == 'committed', first.detail
@@ -198,7 +218,7 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
                                    instance=Information(type='F_G', referents=[helper]),
                                    coalition_id=first.coalition_id,
                                    values=[NamedValue(name='x', value=math.nan), NamedValue(name='y', value=0.0)]))
-    leader_log = session.run_dir / 'logs' / f'schema_agent_{NAV_LEADER}.log'
+    leader_log = agents[NAV_LEADER].log_path
     deadline = time.monotonic() + 10.0
     while 'message.values.x: must be a finite number' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed information message was not reported'
@@ -221,7 +241,7 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
         time.sleep(0.1)
     # The helper stops: its stream goes stale, the leader releases the coalition and re-forms it
     # with the spare GPS robot that also sees it.
-    session.stop(f'schema_agent_{helper}')
+    session.stop(agents[helper].name)
     second = session.wait_for_message(
         f'/{NAV_LEADER}/coalition', STATUS, latched=True, timeout=60.0,
         predicate=lambda m: m.state in ('committed', 'failed') and m.coalition_id != first.coalition_id)
@@ -230,11 +250,11 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     spare_status = session.wait_for_message(f'/{spare}/coalition', STATUS, latched=True, timeout=10.0,
                                             predicate=lambda m: m.state == 'committed')
     assert spare_status.coalition_id == second.coalition_id
-    log = (session.run_dir / 'logs' / f'schema_agent_{NAV_LEADER}.log').read_text()
+    log = leader_log.read_text()
     assert f're-forming (1/3) without {helper}' in log
     assert 'releasing it' in log
     # The spare took exactly one commitment (never two at a time).
-    spare_log = (session.run_dir / 'logs' / f'schema_agent_{spare}.log').read_text()
+    spare_log = agents[spare].log_path.read_text()
     assert len(re.findall(r'committed to coalition (\S+)', spare_log)) == 1
 
 
@@ -242,16 +262,16 @@ def test_the_leader_reports_failed_when_its_only_helper_stops(session, files, co
     scenario = config_dir / 'scenarios' / 'coalition_three_robots.yaml'
     session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
                               ground_truth_rate=1.0))
+    agents = {}
     for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
-        params = {**files, 'robot': robot, 'task': 'navigation' if robot == LEADER else 'none',
+        params = {**files, 'task': 'navigation' if robot == LEADER else 'none',
                   'team_task': 'navigation', 'seed': 300 + index, 'search_time': 3.0, 'reform_timeout': 1.0,
                   'max_reforms': 1}
-        session.start(NodeSpec('coalition_agents', 'schema_agent', name=f'schema_agent_{robot}',
-                               parameters=[params]))
+        agents[robot] = session.start(agent_spec(robot, params))
     first = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=45.0,
                                      predicate=lambda m: m.state in ('committed', 'failed'))
     assert first.state == 'committed' and tuple(first.members) == (LEADER, HELPER), first.detail
-    session.stop(f'schema_agent_{HELPER}')
+    session.stop(agents[HELPER].name)
     # Nobody else can localise the leader (the bystander is seen by nobody): the re-formed search
     # finds nothing and the leader says so.
     final = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=45.0,

@@ -4,8 +4,11 @@ batches, a link model on the sending side, retries and commitments from :mod:`.c
 Aggregation (:mod:`.core.batching`): an agent does not publish its logical messages one by one.
 It buffers them per recipient and publishes, at the end of each processing step, ONE
 ``coalition_interfaces/AgentMessageBatch`` per recipient on that robot's inbox
-``/coalition/channel/<robot>`` (:func:`inbox_topic`; reliable QoS, so the only losses are the
-modelled ones). ACKs are not messages of their own: their ids ride in ``acked_ids`` of the next
+``<team>/coalition/channel/<robot>`` (:func:`inbox_topic`; ``/coalition/channel/<robot>`` with the
+default team namespace ``/``). QoS: :data:`CHANNEL_QOS`, reliable like ``collab_tools.qos.RELIABLE``
+so that the only losses are the modelled ones, but with a queue of :data:`QUEUE_DEPTH` instead of
+10 -- deliberately: a search burst queues hundreds of batches, and a full KEEP_LAST queue
+silently replaces unread ones. ACKs are not messages of their own: their ids ride in ``acked_ids`` of the next
 batch to that robot, or in an ack-only batch after ``ack_delay_s`` (default: the tick period)
 if nothing else goes there. Negotiation messages (COMMIT_REQUEST/ACCEPT/REJECT, RELEASE) are
 flushed at once and processed first on receipt. "End of the processing step" is a guard condition
@@ -57,8 +60,9 @@ import time
 from typing import Callable, Iterable, Sequence
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from collab_tools import qos as standard_qos
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
@@ -69,9 +73,15 @@ from .core.errors import CoalitionError
 from .core.link_model import LinkModel
 from .core.reliable_channel import Negotiation, Received, ReliableChannel, RetryPolicy, Undelivered
 
-DEFAULT_TOPIC = '/coalition/channel'
+#: the channel under the team namespace (``names.team(CHANNEL_TOPIC)``)
+CHANNEL_TOPIC = 'coalition/channel'
+#: the channel of the default team namespace ``/``
+DEFAULT_TOPIC = '/' + CHANNEL_TOPIC
 #: publisher and subscription queue depth of the channel
 QUEUE_DEPTH = 5000
+#: RELIABLE (reliable, volatile) with a queue deep enough for the burst of a whole search
+CHANNEL_QOS = QoSProfile(history=standard_qos.RELIABLE.history, depth=QUEUE_DEPTH,
+                         reliability=standard_qos.RELIABLE.reliability, durability=standard_qos.RELIABLE.durability)
 
 
 def inbox_topic(robot: str, topic: str = DEFAULT_TOPIC) -> str:
@@ -201,9 +211,7 @@ class AgentChannel:
         self._deferred: InboxQueue[Received] = InboxQueue()
         self.work_slice_s = work_slice_s
         self.drain_slice_s = drain_slice_s
-        # Deep enough for the burst of a whole search: a full KEEP_LAST queue silently replaces unread messages.
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.VOLATILE)
+        qos = CHANNEL_QOS
         publisher = lambda kind, name: node.create_publisher(  # noqa: E731
             kind, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         subscribe = lambda kind, name, callback: node.create_subscription(  # noqa: E731
@@ -459,5 +467,5 @@ class AgentChannel:
             self.node.destroy_publisher(publisher)
 
 
-__all__ = ['AgentChannel', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'batch_from_ros', 'batch_to_ros', 'from_ros', 'inbox_topic',
-           'to_ros']
+__all__ = ['AgentChannel', 'CHANNEL_QOS', 'CHANNEL_TOPIC', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'batch_from_ros',
+           'batch_to_ros', 'from_ros', 'inbox_topic', 'to_ros']

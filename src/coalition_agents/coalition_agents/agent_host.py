@@ -5,7 +5,7 @@ Why: the Fig. 9 column runs up to 20 agents. Twenty rclpy processes on this 2-co
 scheduling between them -- start-up alone takes tens of seconds and their contention, not the
 algorithm, would dominate the measured search time. As in an rclcpp component container, every
 agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its own
-name, parameters, publishers and subscriptions on the real topics (``/coalition/channel``,
+name, parameters, publishers and subscriptions on the real topics (``<team>/coalition/channel/<robot>``,
 ``/<robot>/coalition``, the bridge's sensor topics and services); only the process, the DDS
 participant and the executor are shared. One executor runs every node's callbacks; each node's
 callbacks stay mutually exclusive (its default callback group), so an agent sees its events one
@@ -20,17 +20,22 @@ queue, ``work_slice`` (wall s) per executor cycle, round robin: every cycle stil
 inboxes, timers and sensor reports, so a COMMIT_REQUEST or an ACK waits for at most one short
 cycle instead of every agent's reasoning.
 
-Parameters:
+Each hosted agent is a :class:`~.schema_agent_node.SchemaAgentNode` named ``schema_agent`` in
+its robot's namespace under the host's (``/<robot>/schema_agent`` for a host in ``/``), built
+with its own arguments (no subclass per agent): ``--params-file agent_parameters``, the host's
+remapping rules (e.g. ``/clock``; not its name or namespace), ``use_sim_time`` as the host's and
+``team_namespace`` when the host's is set.
 
-* ``robots`` (string array, required): the robots to host; agent ``<robot>`` becomes the node
-  ``<node_prefix><robot>``.
+Parameters (all read-only: they shape the process at start-up):
+
+* ``robots`` (string array, required): the robots to host.
 * ``agent_parameters`` (path, required): a ROS 2 parameter file for the hosted nodes, read by
-  rcl as a ``--params-file`` of each node: ``/**`` entries for every agent, ``<node_prefix><robot>``
-  entries per agent (``robot`` is set by the host).
-* ``node_prefix`` (default ``schema_agent_``).
-* ``wait_for_recorder`` (s, default 0): offer ``/coalition/channel`` and the hosted robots'
-  inboxes ``/coalition/channel/<robot>`` and wait up to this long for a subscriber of each (the
-  bag recorder) before creating the agents, so the whole search is recorded.
+  rcl as a ``--params-file`` of each node: ``/**`` entries for every agent,
+  ``/**/<robot>/schema_agent`` entries per agent (:func:`~.core.sim_scenarios.agent_parameter_file`).
+* ``team_namespace`` (default '': the host's namespace): where the channel lives.
+* ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel`` and the hosted
+  robots' inboxes ``<team>/coalition/channel/<robot>`` and wait up to this long for a subscriber
+  of each (the bag recorder) before creating the agents, so the whole search is recorded.
 * ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
   per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
   of equal capabilities reuse each other's generated spaces instead of generating them again.
@@ -50,82 +55,88 @@ import time
 from pathlib import Path
 
 import rclpy
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter
+from collab_tools import qos
+from collab_tools.names import TeamNode, check_robot_name, join
+from collab_tools.node_support import ConfigurationError
+from collab_tools.parameters import NodeParameters
 
+from .agent_channel import CHANNEL_TOPIC, inbox_topic
 from .core.cooperative_work import CooperativeWork
 from .schema_agent_node import SchemaAgentNode
 
-
-class _NodeOptions(Node):
-    """Gives the hosted node its own command-line arguments (name remap, parameter file) instead of
-    the process's: cooperative ``super().__init__`` puts this between SchemaAgentNode and Node."""
-
-    node_arguments: list[str] = []
-    node_context = None
-
-    def __init__(self, node_name: str, **kwargs):
-        super().__init__(node_name, cli_args=self.node_arguments, use_global_arguments=False,
-                         context=self.node_context, **kwargs)
+#: remapping targets that rename or move a node: the host's own, never forwarded to its agents
+_NODE_RULES = ('__node', '__name', '__ns')
 
 
-def hosted_agent(node_name: str, robot: str, parameter_file: Path, use_sim_time: bool, context=None,
-                 solution_caches: dict | None = None, work: CooperativeWork | None = None) -> SchemaAgentNode:
-    """A SchemaAgentNode named ``node_name`` reading its parameters from ``parameter_file``
-    (``solution_caches``, ``work``: shared between the hosted agents, see SchemaAgentNode)."""
-    arguments = ['--ros-args', '-r', f'__node:={node_name}', '--params-file', str(parameter_file),
-                 '-p', f'robot:={robot}', '-p', f'use_sim_time:={"true" if use_sim_time else "false"}']
-    node_class = type(f'HostedSchemaAgent_{robot}', (SchemaAgentNode, _NodeOptions),
-                      {'node_arguments': arguments, 'node_context': context,
-                       'shared_solution_caches': solution_caches, 'shared_work': work})
-    return node_class()
+def forwarded_remappings(argv: list[str]) -> list[str]:
+    """The ``-r from:=to`` rules of the process's ROS arguments that its hosted agents must get
+    too (``/clock:=/sim1/clock``), as ``['-r', rule, ...]``: not the rules that name or move the
+    host itself (``__node``, ``__ns``) nor those addressed to another node (``node:from:=to``)."""
+    forwarded, ros_args, index = [], False, 0
+    while index < len(argv):
+        token = argv[index]
+        if token == '--ros-args':
+            ros_args = True
+        elif token == '--':
+            ros_args = False
+        elif ros_args and token in ('-r', '--remap') and index + 1 < len(argv):
+            rule = argv[index + 1]
+            index += 1
+            source = rule.split(':=', 1)[0]
+            target_node, _, name = source.rpartition(':') if ':' in source else ('', '', source)
+            if ':=' in rule and name not in _NODE_RULES and target_node in ('', 'schema_agent'):
+                forwarded += ['-r', rule]
+        index += 1
+    return forwarded
+
+
+def _robots_problem(robots: list[str]) -> str | None:
+    for robot in robots:
+        problem = check_robot_name(robot)
+        if problem:
+            return problem
+    if len(set(robots)) != len(robots):
+        return f'names a robot twice (got {robots!r})'
+    return None
+
+
+def _file_problem(path: str) -> str | None:
+    return None if Path(path).is_file() else f'no such file {path!r}'
 
 
 class AgentHost(Node):
-    def __init__(self):
+    def __init__(self, argv: list[str] | None = None):
         super().__init__('schema_agent_host')
-        for name, default, description in (
-                ('robots', [''], 'robots whose schema_agent this process hosts'),
-                ('agent_parameters', '', 'ROS 2 parameter file of the hosted schema_agent nodes'),
-                ('node_prefix', 'schema_agent_', 'hosted node name = prefix + robot'),
-                ('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done, >= 0'),
-                ('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag '
-                                           'recorder) before the agents start; 0 = do not wait'),
-                ('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)"),
-                ('work_slice', 0.01, 'wall s, > 0: how long the agents\' shared deferred work (reasoning, '
-                                     'channel messages for the agents) runs per executor cycle (executor single)'),
-                ('share_solution_spaces', True, 'one solution-space cache for the hosted agents (robots of equal '
-                                                'capabilities reuse generated spaces)')):
-            declare_parameter(self, name, default, description)
-        robots = self.get_parameter('robots').value
-        if not isinstance(robots, (list, tuple)) or not robots or not all(isinstance(r, str) and r for r in robots):
-            raise ConfigurationError(f'parameter robots: a non-empty list of robot names (got {robots!r})')
-        if len(set(robots)) != len(robots):
-            raise ConfigurationError(f'parameter robots: {robots!r} names a robot twice')
-        path = self.get_parameter('agent_parameters').value
-        if not isinstance(path, str) or not path or not Path(path).is_file():
-            raise ConfigurationError(f'parameter agent_parameters: no such file {path!r}')
-        linger = self.get_parameter('linger').value
-        if isinstance(linger, bool) or not isinstance(linger, (int, float)) or linger < 0:
-            raise ConfigurationError(f'parameter linger: must be a number >= 0 (got {linger!r})')
-        self.linger = float(linger)
-        self.wait_for_recorder = float(self.get_parameter('wait_for_recorder').value or 0.0)
-        self.robots, self.parameter_file = list(robots), Path(path)
-        self.prefix = str(self.get_parameter('node_prefix').value)
-        self.executor_kind = self.get_parameter('executor').value
-        if self.executor_kind not in ('single', 'multi'):
-            raise ConfigurationError(f"parameter executor: must be 'single' or 'multi' (got {self.executor_kind!r})")
-        work_slice = self.get_parameter('work_slice').value
-        if isinstance(work_slice, bool) or not isinstance(work_slice, (int, float)) or not work_slice > 0:
-            raise ConfigurationError(f'parameter work_slice: must be a number > 0 (got {work_slice!r})')
+        self.params = NodeParameters(self)
+        self.names = TeamNode(self, self.params)
+        declare = self.params.declare
+        self.robots = declare('robots', [''], 'robots whose schema_agent this process hosts (node '
+                              '<host namespace>/<robot>/schema_agent each)', required=True, check=_robots_problem)
+        self.parameter_file = declare('agent_parameters', '', 'ROS 2 parameter file of the hosted schema_agent nodes',
+                                      required=True, check=_file_problem)
+        self.linger = declare('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done',
+                              low=0.0, high=3600.0)
+        self.wait_for_recorder = declare('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent '
+                                         'channel (the bag recorder) before the agents start; 0 = do not wait',
+                                         low=0.0, high=3600.0)
+        self.executor_kind = declare('executor', 'single', "'single' (single-threaded executor) or 'multi' "
+                                     '(one thread per agent)', choices=('single', 'multi'))
+        work_slice = declare('work_slice', 0.01, "wall s: how long the agents' shared deferred work (reasoning, "
+                             'channel messages for the agents) runs per executor cycle (executor single)',
+                             low=0.0, low_open=True, high=1.0)
+        self.share_solution_spaces = declare('share_solution_spaces', True, 'one solution-space cache for the '
+                                             'hosted agents (robots of equal capabilities reuse generated spaces)')
+        self.argv = list(sys.argv if argv is None else argv)
         self.work: CooperativeWork | None = None
         if self.executor_kind == 'single':  # threads: each agent keeps its own queue
             trigger = self.create_guard_condition(lambda: self.work.run())
-            self.work = CooperativeWork(trigger.trigger, float(work_slice), self._step_failed)
+            self.work = CooperativeWork(trigger.trigger, work_slice, self._step_failed)
         self.agents: list[SchemaAgentNode] = []
-        self.share_solution_spaces = bool(self.get_parameter('share_solution_spaces').value)
 
     def wait_for_channel_recorder(self) -> bool:
         """Offer the agent channel and wait until someone (the recorder) subscribes, so that the
@@ -133,11 +144,11 @@ class AgentHost(Node):
         if self.wait_for_recorder <= 0:
             return True
         from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
-        from .agent_channel import DEFAULT_TOPIC, inbox_topic
-        topics = [DEFAULT_TOPIC] + [inbox_topic(robot) for robot in self.robots]
+        channel = self.names.team(CHANNEL_TOPIC)
+        topics = [channel] + [inbox_topic(robot, channel) for robot in self.robots]
         # The inboxes carry batches, the shared topic single messages (agent_channel).
-        publishers = [self.create_publisher(AgentMessage if topic == DEFAULT_TOPIC else AgentMessageBatch, topic, 10)
-                      for topic in topics]
+        publishers = [self.create_publisher(AgentMessage if topic == channel else AgentMessageBatch, topic,
+                                            qos.RELIABLE) for topic in topics]
         deadline = time.monotonic() + self.wait_for_recorder
         while any(p.get_subscription_count() == 0 for p in publishers) and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -149,19 +160,27 @@ class AgentHost(Node):
         time.sleep(0.3)  # the recorder opens the topic in the bag before the first message
         return ok
 
+    def agent_arguments(self) -> tuple[list[str], list[Parameter]]:
+        """(cli_args, parameter_overrides) of every hosted agent (see the module docstring)."""
+        cli_args = ['--ros-args', '--params-file', self.parameter_file, *forwarded_remappings(self.argv)]
+        overrides = [Parameter('use_sim_time', value=bool(self.get_parameter('use_sim_time').value))]
+        if self.get_parameter('team_namespace').value:
+            overrides.append(Parameter('team_namespace', value=self.names.team_namespace))
+        return cli_args, overrides
+
     def start_agents(self) -> None:
-        use_sim_time = bool(self.get_parameter('use_sim_time').value)
-        prefix, path = self.prefix, self.parameter_file
+        cli_args, overrides = self.agent_arguments()
         caches: dict | None = {} if self.share_solution_spaces else None
         for robot in self.robots:
+            namespace = join(self.get_namespace(), robot)
             try:
-                self.agents.append(hosted_agent(f'{prefix}{robot}', robot, path, use_sim_time, solution_caches=caches,
-                                                work=self.work))
+                self.agents.append(SchemaAgentNode(namespace, cli_args=cli_args, parameter_overrides=overrides,
+                                                   context=self.context, solution_caches=caches, work=self.work))
             except ConfigurationError as error:
                 self.destroy_agents()
-                raise ConfigurationError(f'agent {prefix}{robot}: {error}') from None
+                raise ConfigurationError(f'agent {namespace}/schema_agent: {error}') from None
         self.get_logger().info(f'hosting {len(self.agents)} schema_agent nodes: '
-                               + ', '.join(a.get_name() for a in self.agents))
+                               + ', '.join(a.get_fully_qualified_name() for a in self.agents))
 
     def _step_failed(self, step, exc: Exception) -> None:
         self.get_logger().error(f'{getattr(step, "__qualname__", step)} failed: {type(exc).__name__}: {exc}')
@@ -178,10 +197,10 @@ class AgentHost(Node):
 def main(args=None) -> int:
     rclpy.init(args=args)
     try:
-        host = AgentHost()
+        host = AgentHost(args)
         host.wait_for_channel_recorder()
         host.start_agents()
-    except ConfigurationError as error:
+    except (ConfigurationError, ParameterException) as error:
         rclpy.logging.get_logger('schema_agent_host').fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2

@@ -34,7 +34,7 @@ from typing import Callable
 
 import yaml
 from collab_tools.core.bag_analysis import read_messages
-from collab_tools.orchestration.experiment import load_experiment, run_experiment
+from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
 
 from .sim_experiments import conflicting_commitments, kind_totals, read_coalition_bag
 
@@ -50,18 +50,20 @@ Log = Callable[[str], None]
 
 
 def agent_nodes(experiment: dict) -> dict[str, dict]:
-    """robot -> merged inline parameters of its schema_agent node in the experiment file."""
+    """robot -> merged inline parameters of its schema_agent node in the experiment file, and the
+    node's orchestration label (``node``). The robot is the node's namespace (/<robot>)."""
     agents = {}
-    for node in experiment['nodes']:
+    for index, node in enumerate(experiment['nodes']):
         if node.get('executable') != 'schema_agent':
             continue
         params: dict = {}
         for entry in node.get('parameters', []):
             if isinstance(entry, dict):
                 params.update(entry)
-        if 'robot' not in params:
-            raise ValueError(f"experiment node {node.get('name')}: parameters need 'robot'")
-        agents[params['robot']] = {**params, 'node': node.get('name', f"schema_agent_{params['robot']}")}
+        robot = str(node.get('namespace') or '').strip('/').split('/')[-1]
+        if not robot:
+            raise ValueError(f'experiment nodes[{index}] (schema_agent): needs namespace: /<robot>')
+        agents[robot] = {**params, 'robot': robot, 'node': parse_node(node, f'nodes[{index}]').label}
     return agents
 
 
@@ -153,9 +155,14 @@ def plot_run(run: dict, path: Path, title: str) -> None:
 def run_boxpush(config_dir: Path, run_dir: Path, losses: tuple[float, ...] = (0.0, 0.2), seed: int = 0,
                 log: Log = print) -> dict:
     """One recorded simulation per loss probability (see the module docstring)."""
-    experiment_path = Path(config_dir) / 'experiments' / EXPERIMENT
-    experiment = load_experiment(experiment_path)
+    experiment = load_experiment(Path(config_dir) / 'experiments' / EXPERIMENT)
     agents = agent_nodes(experiment)
+    # The run ends when the leader that waits for the other one exits (exit_after).
+    last = next(params for params in agents.values() if [r for r in params.get('exit_after', []) if r])
+    experiment['until'] = {'exit': last['node']}
+    Path(run_dir).mkdir(parents=True, exist_ok=True)
+    experiment_path = Path(run_dir) / 'experiment.yaml'
+    experiment_path.write_text(yaml.safe_dump(experiment, sort_keys=False))
     shared = yaml.safe_load((Path(config_dir) / 'coalitions' / 'boxpush_agents.yaml').read_text())
     goal_tolerance = float(shared['/**']['ros__parameters']['goal_tolerance'])
     if goal_tolerance > ACCEPTANCE_TOLERANCE_M:

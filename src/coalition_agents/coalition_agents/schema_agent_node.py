@@ -2,16 +2,27 @@
 
 The reasoning is :class:`~.core.agent.SchemaAgent` (pure Python); this node connects it to
 
-* the bridge: ``/<robot>/set_sensor_active`` switches the ES-EPS pairs a potential solution needs
+The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``; the robot is the
+last component of the namespace, :class:`collab_tools.names.RobotNode`). Its per-robot names are
+relative to that namespace; what the team shares lives under the team namespace (``team_namespace``
+parameter, default: the parent of the node's namespace, ``/`` for ``/<robot>``). It connects the
+reasoning to
+
+* the bridge: ``set_sensor_active`` switches the ES-EPS pairs a potential solution needs
   (temporarily during the search; after it only the chosen coalition's stay on), and their topics
-  are what the sensors retrieve: ``/<robot>/fiducials`` (each detected team robot or library
-  object X gives F_R(X, robot)), ``/<robot>/gps``, ``/<robot>/scan``, ``/<robot>/bumper`` (a report
-  means the sensor's label is retrieved) -- see :class:`~.core.live_sensing.LiveSensing`;
-* the agent channel, ``/coalition/channel/<robot>`` inboxes (:class:`~.agent_channel.AgentChannel`: link model,
-  retries, exactly-once delivery, commitments): requests, offers and request-and-wait
+  are what the sensors retrieve (QoS SENSOR_IN, so best-effort publishers are accepted):
+  ``fiducials`` (each detected team robot or library object X gives F_R(X, robot)), ``gps``,
+  ``scan``, ``bumper`` (a report means the sensor's label is retrieved) -- see
+  :class:`~.core.live_sensing.LiveSensing`;
+* the agent channel, ``<team>/coalition/channel/<robot>`` inboxes (:class:`~.agent_channel.AgentChannel`:
+  link model, retries, exactly-once delivery, commitments): requests, offers and request-and-wait
   negotiation;
-* ``/<robot>/coalition`` (coalition_interfaces/AgentStatus, latched): its state (searching,
-  negotiating, committed, failed, idle), the coalition, its leader, members and cost.
+* ``coalition`` (coalition_interfaces/AgentStatus, LATCHED): its state (searching,
+  negotiating, committed, failed, idle), the coalition, its leader, members and cost; it reads
+  teammates' statuses at ``<team>/<teammate>/coalition``.
+
+Parameters: :mod:`.agent_parameters` (descriptors with ranges; ``max_speed``, ``goal_tolerance``,
+``stream_rate`` and ``tick_period`` apply when set at run time, the others are read-only).
 
 Life cycle (sim time, ``use_sim_time``): once every teammate's agent listens on the channel (or
 after ``team_wait``) a robot with a task starts the search. The agent is event-driven: a channel
@@ -44,7 +55,7 @@ Execution (after the coalition is set up):
   (``goal_position`` for F_G(goal)), e.g. F_G(local) = helper's F_G composed with the helper's
   F_R(local, helper).
 * Motor schemas (``drive``: true; :mod:`~.core.motor_schema`): the leader publishes
-  /<robot>/cmd_vel -- ``navigate`` goes to the goal (heading from the GPS, or estimated from its
+  ``cmd_vel`` (COMMAND_OUT) -- ``navigate`` goes to the goal (heading from the GPS, or estimated from its
   motion when a teammate's fiducial localises it); ``push_box_cooperatively`` pushes the box to
   the goal and waits while the teammate's streamed bumper is not pressed. A committed helper runs
   ``maintain_relative_position`` on its fiducial view of the leader (a pushing teammate also
@@ -79,16 +90,18 @@ from pathlib import Path
 from bridge_interfaces.msg import BumperState, FiducialDetections
 from bridge_interfaces.srv import SetSensorActive
 from coalition_interfaces.msg import AgentStatus
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools import qos
+from collab_tools.names import RobotNode
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, Vector3
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from sensor_msgs.msg import LaserScan
 
-from .agent_channel import AgentChannel
+from .agent_channel import CHANNEL_TOPIC, AgentChannel
+from .agent_parameters import FILES, declare_agent_parameters, link_model, load_files, retry_policy, task_named
 from .core.agent import FeasibleCoalition, SchemaAgent
-from .core.capabilities import load_capability_file
 from .core.channel_codec import ChannelCodec, ChannelMessage, MessageKind, offer_message, request_message
 from .core.coalition_execution import CoalitionExecution
 from .core.cooperative_work import CooperativeWork
@@ -97,12 +110,9 @@ from .core.information import Entity, InformationInstance
 from .core.information_stream import InformationStream
 from .core.information_values import ValueUnavailable, evaluate
 from .core.motor_schema import STOP, BoxPush, GoToGoal, HeadingEstimator, MaintainRelativePosition, Velocity
-from .core.link_model import LinkModel
 from .core.live_sensing import fiducial_values
-from .core.reliable_channel import Negotiation, Received, RetryPolicy
-from .core.schemas import load_costs, load_library
+from .core.reliable_channel import Negotiation, Received
 from .core.solution_space import SolutionSpaceCache
-from .core.tasks import load_tasks
 
 #: Bridge sensors: name -> (topic suffix, message type).
 BRIDGE_SENSORS = {
@@ -114,135 +124,72 @@ BRIDGE_SENSORS = {
 
 
 class SchemaAgentNode(Node):
-    #: Set by schema_agent_host to share solution spaces between its agents (None: each its own):
-    #: (schemas file, costs file) -> SolutionSpaceCache. Robots of equal capabilities then reuse
-    #: each other's generated, memoised sub-trees (the reasoning is deterministic, so sharing it
-    #: changes no result, only the CPU time of the process).
-    shared_solution_caches: dict | None = None
-    #: Set by schema_agent_host: the hosted agents' deferred work (reasoning slices, channel
-    #: messages waiting for the agent) runs through one queue (None: each agent its own).
-    shared_work: CooperativeWork | None = None
+    """One robot's agent, node ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``).
 
-    def __init__(self):
-        super().__init__('schema_agent')
-        for name, default, description in (
-                ('robot', '', 'robot this agent reasons for (a robot of the capability file)'),
-                ('capability_file', '', 'team capability YAML (config/coalitions/capabilities/*.yaml)'),
-                ('schemas_file', '', 'schema library YAML (config/coalitions/schemas.yaml)'),
-                ('costs_file', '', 'schema costs YAML (config/coalitions/costs.yaml)'),
-                ('tasks_file', '', 'tasks YAML (config/coalitions/tasks.yaml)'),
-                ('task', 'none', "task name from tasks_file, or 'none' (a pure helper)"),
-                ('team_task', '', "for task 'none': the task the team works on (its priors, helper MS)"),
-                ('link_preset', 'paper_fig9', 'link model preset (paper_fig9 | ideal)'),
-                ('link_delay_mean', -1.0, 'one-way delay mean, s (normal, truncated at 0); < 0 = preset'),
-                ('link_delay_std', -1.0, 'one-way delay std, s; < 0 = preset'),
-                ('loss_probability', 0.0, 'probability that a message copy is lost, [0, 1]'),
-                ('seed', -1, 'link model seed; -1 = fresh'),
-                ('search_time', 3.0, 'sim s of search before negotiating the least-cost coalition at the latest, > 0'),
-                ('settle_time', 1.0, 'sim s the cheapest executable coalition must stay the cheapest before the '
-                                     'leader negotiates it (earlier than search_time), > 0'),
-                ('reorder_window', 0.05, 'sim s, >= 0: a channel message is re-sent once a message sent this much '
-                                         'later to the same robot was answered (fast retransmit); above the link '
-                                         "delay spread"),
-                ('tail_timeout', 1.5, 'sim s, > 0: before a round trip to a robot is measured, a message with '
-                                      'nothing later to prove it lost is re-sent after this long without any '
-                                      "answer from that robot (then the measured timeout, >= 0.2 s; doubling up to "
-                                      "8 s); above a busy agent's processing lag"),
-                ('peer_timeout', 10.0, 'sim s, > 0: a robot that answers nothing for this long while it owes '
-                                       'answers is given up (its messages undelivered)'),
-                ('hold_seconds', 0.0, 'commitment hold time sent to helpers, s; 0 = until released'),
-                ('reading_timeout', 1.0, 'sim s a sensor report stays current, > 0'),
-                ('tick_period', 0.1, 'sim s between re-evaluations, > 0'),
-                ('reasoning_slice', 0.01, 'wall s of reasoning per callback, > 0: the rest continues in the next '
-                                          'one, so channel messages, sensor reports and timers (of every agent '
-                                          'in the process) run in between'),
-                ('team_wait', 10.0, 'sim s to wait for every teammate on the channel before searching, > 0'),
-                ('stream_rate', 5.0, 'Hz (sim) at which a helper streams the information it serves, > 0'),
-                ('stream_timeout', 1.0, 'sim s after which a streamed value is stale, > 0'),
-                ('reform_timeout', 0.0, 'sim s a coalition may stay infeasible before the leader re-forms it, >= 0 '
-                                        '(0 = never: it keeps the coalition)'),
-                ('max_reforms', 3, 'how often a leader re-forms before it reports failed, >= 0'),
-                ('drive', False, 'run the motor schemas on /<robot>/cmd_vel (leader: the task MS; helper: '
-                                 'maintain_relative_position)'),
-                ('goal_position', [0.0, 0.0], 'x y (m) of the a-priori F_G(goal) the task MS uses'),
-                ('max_speed', 0.4, 'm/s, > 0: navigate and follow speed limit'),
-                ('box_standoff', 0.55, 'm, > 0: box centre to robot centre when pushing (half box depth + radius)'),
-                ('push_offset', 0.0, 'm: where along the box back face the leader pushes (+ = left)'),
-                ('goal_tolerance', 0.25, 'm, > 0: navigation / box distance to the goal that completes the task'),
-                ('exit_after', [''], "with exit_when_done: exit only once these robots' agents report their "
-                                     "task completed or failed too (an experiment's last leader)"),
-                ('task_time_limit', 0.0, 'sim s after the search start a driving leader gives up, >= 0 (0 = none)'),
-                ('exit_when_done', False, 'exit once the coalition is set up (or failed) / the helper released')):
-            declare_parameter(self, name, default, description)
-        p = lambda name: self.get_parameter(name).value  # noqa: E731
-        self.robot = self._text(p, 'robot')
-        files = {name: self._path(p, name) for name in ('capability_file', 'schemas_file', 'costs_file', 'tasks_file')}
-        try:
-            library = load_library(files['schemas_file'])
-        except (CoalitionError, ValueError, OSError) as exc:
-            raise ConfigurationError(f'parameter schemas_file: {exc}') from None
-        loaded = {}
-        for name, loader in (('costs_file', lambda f: load_costs(f)), ('tasks_file', lambda f: load_tasks(f, library)),
-                             ('capability_file', lambda f: load_capability_file(f, library))):
-            try:
-                loaded[name] = loader(files[name])
-            except (CoalitionError, ValueError, OSError) as exc:
-                raise ConfigurationError(f'parameter {name}: {exc}') from None
-        costs, tasks, capability_file = loaded['costs_file'], loaded['tasks_file'], loaded['capability_file']
+    ``namespace``, ``cli_args``, ``parameter_overrides``, ``context``: as for rclpy's Node (a
+    schema_agent_host gives each hosted agent its namespace and its own arguments; a standalone
+    node takes them from the command line). ``solution_caches`` (schemas, costs files ->
+    SolutionSpaceCache) and ``work`` (a CooperativeWork queue) are shared by a host between its
+    agents: robots of equal capabilities then reuse each other's generated, memoised sub-trees
+    (the reasoning is deterministic, so sharing changes no result, only the CPU time), and the
+    agents' deferred work runs through one queue. None: the agent's own.
+    """
+
+    def __init__(self, namespace: str | None = None, *, cli_args: list[str] | None = None,
+                 parameter_overrides: list | None = None, context=None, solution_caches: dict | None = None,
+                 work: CooperativeWork | None = None):
+        super().__init__('schema_agent', namespace=namespace, context=context, cli_args=cli_args,
+                         use_global_arguments=cli_args is None, parameter_overrides=parameter_overrides)
+        self.params = NodeParameters(self)
+        self.names = RobotNode(self, self.params)
+        self.robot = self.names.robot
+        values = declare_agent_parameters(self.params, {
+            'max_speed': self._set_max_speed, 'goal_tolerance': self._set_goal_tolerance,
+            'stream_rate': self._set_stream_rate, 'tick_period': self._set_tick_period})
+        library, costs, tasks, capability_file = load_files(values)
+        files = {name: Path(values[name]) for name in FILES}
         team = dict(capability_file.robots)
         if self.robot not in team:
-            raise ConfigurationError(f"parameter robot: '{self.robot}' is not in the capability file's robots "
-                                     f"({', '.join(team) or 'none'})")
+            raise ConfigurationError(f"namespace {self.get_namespace()}: robot '{self.robot}' is not in the "
+                                     f"capability file's robots ({', '.join(team) or 'none'})")
         for sensor in team[self.robot].sensors:
             if sensor.sensor not in BRIDGE_SENSORS:
                 raise ConfigurationError(
                     f"parameter capability_file: robot {self.robot}'s sensor '{sensor.sensor}' is not a bridge sensor "
                     f"(allowed: {', '.join(BRIDGE_SENSORS)})")
-        task_name = self._text(p, 'task')
-        task = None if task_name == 'none' else self._task(tasks, task_name, 'task')
-        team_task_name = str(p('team_task') or '')
-        team_task = self._task(tasks, team_task_name, 'team_task') if team_task_name else None
+        task_name = values['task']
+        task = None if task_name == 'none' else task_named(tasks, task_name, 'task')
+        team_task_name = values['team_task']
+        team_task = task_named(tasks, team_task_name, 'team_task') if team_task_name else None
         if task is None and team_task is None:
             raise ConfigurationError("parameter team_task: required when task is 'none' (the task the team works "
                                      f"on: {', '.join(tasks)})")
-        self.search_time = self._positive(p, 'search_time')
-        self.settle_time = self._positive(p, 'settle_time')
-        self.hold_seconds = self._number(p, 'hold_seconds', 0.0, 'a number >= 0')
-        reading_timeout = self._positive(p, 'reading_timeout')
-        tick_period = self._positive(p, 'tick_period')
-        self.reasoning_slice = self._positive(p, 'reasoning_slice')
-        self.team_wait = self._positive(p, 'team_wait')
-        self.exit_when_done = bool(p('exit_when_done'))
-        self.stream_period = 1.0 / self._positive(p, 'stream_rate')
-        self.reform_timeout = self._number(p, 'reform_timeout', 0.0, 'a number >= 0')
-        self.max_reforms = p('max_reforms')
-        if isinstance(self.max_reforms, bool) or not isinstance(self.max_reforms, int) or self.max_reforms < 0:
-            raise ConfigurationError(f'parameter max_reforms: must be an integer >= 0 (got {self.max_reforms!r})')
-        self.drive = bool(p('drive'))
-        self.task_time_limit = self._number(p, 'task_time_limit', 0.0, 'a number >= 0')
-        self.exit_after = [name for name in p('exit_after') if name]
-        goal = list(p('goal_position'))
-        if len(goal) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in goal):
-            raise ConfigurationError(f'parameter goal_position: must be [x, y] in m (got {goal!r})')
-        self.stream = InformationStream(self._positive(p, 'stream_timeout'))
-        # Each value is checked here, so the motor schemas' own checks cannot fail.
-        max_speed, tolerance = self._positive(p, 'max_speed'), self._positive(p, 'goal_tolerance')
-        standoff = self._positive(p, 'box_standoff')
-        push_offset = self._number(p, 'push_offset', -math.inf, 'a finite number')
-        self.navigate = GoToGoal(max_speed=max_speed, tolerance=tolerance)
-        self.push = BoxPush(standoff=standoff, lateral_offset=push_offset, tolerance=tolerance)
-        link = self._link_model(p)
-        tail_timeout, peer_timeout = self._positive(p, 'tail_timeout'), self._positive(p, 'peer_timeout')
-        retry = RetryPolicy(reorder_window_s=self._number(p, 'reorder_window', 0.0, 'a number >= 0'),
-                            tail_timeout_s=tail_timeout, max_timeout_s=max(8.0, tail_timeout),
-                            peer_timeout_s=peer_timeout, message_lifetime_s=max(30.0, peer_timeout))
+        self.search_time, self.settle_time = values['search_time'], values['settle_time']
+        self.hold_seconds = values['hold_seconds']
+        tick_period = values['tick_period']
+        self.reasoning_slice = values['reasoning_slice']
+        self.team_wait = values['team_wait']
+        self.exit_when_done = values['exit_when_done']
+        self.stream_period = 1.0 / values['stream_rate']
+        self.reform_timeout = values['reform_timeout']
+        self.max_reforms = values['max_reforms']
+        self.drive = values['drive']
+        self.task_time_limit = values['task_time_limit']
+        self.exit_after = values['exit_after']
+        goal = values['goal_position']
+        self.stream = InformationStream(values['stream_timeout'])
+        # The ranges are checked by the descriptors, so the motor schemas' own checks cannot fail.
+        self.navigate = GoToGoal(max_speed=values['max_speed'], tolerance=values['goal_tolerance'])
+        self.push = BoxPush(standoff=values['box_standoff'], lateral_offset=values['push_offset'],
+                            tolerance=values['goal_tolerance'])
+        link = link_model(values)
         try:
             cache = None
-            if self.shared_solution_caches is not None:
+            if solution_caches is not None:
                 key = (str(files['schemas_file'].resolve()), str(files['costs_file'].resolve()))
-                cache = self.shared_solution_caches.setdefault(key, SolutionSpaceCache(library, costs))
+                cache = solution_caches.setdefault(key, SolutionSpaceCache(library, costs))
             self.agent = SchemaAgent(self.robot, team, library, costs, task, self, team_task=team_task,
-                                     reading_timeout_s=reading_timeout, cache=cache)
+                                     reading_timeout_s=values['reading_timeout'], cache=cache)
             if task is not None:
                 self.agent.reasoner.task_space()  # the robot must be able to run the task's MS
         except (CoalitionError, ValueError) as exc:
@@ -257,21 +204,21 @@ class SchemaAgentNode(Node):
                                                                                      'y': float(goal[1])},
                        InformationInstance('F_M'): {}}
         codec = ChannelCodec.for_team(library, self.team)
-        self.work = self.shared_work
+        self.work = work
         if self.work is None:
             trigger = self.create_guard_condition(lambda: self.work.run())
             self.work = CooperativeWork(trigger.trigger, 2 * self.reasoning_slice, self._step_failed)
         self.channel = AgentChannel(self, self.robot, codec, link, team=self.team, on_message=self._on_message,
-                                    policy=retry, work=self.work)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.status_pub = self.create_publisher(AgentStatus, f'/{self.robot}/coalition', latched)
-        self.sensor_client = self.create_client(SetSensorActive, f'/{self.robot}/set_sensor_active')
+                                    policy=retry_policy(values), work=self.work,
+                                    topic=self.names.team(CHANNEL_TOPIC))
+        # Per-robot names are relative (this node's namespace is its robot's).
+        self.status_pub = self.create_publisher(AgentStatus, 'coalition', qos.LATCHED)
+        self.sensor_client = self.create_client(SetSensorActive, 'set_sensor_active')
         for sensor in team[self.robot].sensor_names:
             topic, msg_type = BRIDGE_SENSORS[sensor]
-            self.create_subscription(msg_type, f'/{self.robot}/{topic}',
-                                     lambda msg, sensor=sensor: self._on_sensor(sensor, msg), 10)
-        self.cmd_pub = self.create_publisher(Twist, f'/{self.robot}/cmd_vel', 10) if self.drive else None
+            self.create_subscription(msg_type, topic, lambda msg, sensor=sensor: self._on_sensor(sensor, msg),
+                                     qos.SENSOR_IN)
+        self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT) if self.drive else None
         self.execution: CoalitionExecution | None = None
         self.heading = HeadingEstimator()
         self.follow: MaintainRelativePosition | None = None
@@ -281,15 +228,15 @@ class SchemaAgentNode(Node):
         self._reforms = 0
         self._last_unavailable = ''
         self._tick_period = tick_period
-        self.create_timer(self.stream_period, self._stream)
+        self.stream_timer = self.create_timer(self.stream_period, self._stream)
         unknown = [name for name in self.exit_after if name not in team]
         if unknown:
             raise ConfigurationError(f"parameter exit_after: {unknown[0]!r} is not in the capability file's robots "
                                      f"({', '.join(team)})")
         self.others_done: set[str] = set()
         for name in self.exit_after:
-            self.create_subscription(AgentStatus, f'/{name}/coalition',
-                                     lambda msg, name=name: self._on_other_status(name, msg), latched)
+            self.create_subscription(AgentStatus, self.names.teammate(name, 'coalition'),
+                                     lambda msg, name=name: self._on_other_status(name, msg), qos.LATCHED)
         self._own_done = False
         self.finished = Future()
         self.state = 'idle'
@@ -307,61 +254,29 @@ class SchemaAgentNode(Node):
         self.found_at: float | None = None
         self._best_cost: float | None = None
         self._best_since: float | None = None
-        self.create_timer(tick_period, self._tick)
+        self.tick_timer = self.create_timer(tick_period, self._tick)
         self._publish_status()
         self.get_logger().info(f"{self.robot}: task {task_name}, team {', '.join(self.team)}, link {link!r}, "
                                f'search {self.search_time:g} s, settle {self.settle_time:g} s')
 
-    # --- parameters ----------------------------------------------------------------------------
-    @staticmethod
-    def _text(p, name: str) -> str:
-        value = p(name)
-        if not isinstance(value, str) or not value:
-            raise ConfigurationError(f'parameter {name}: required (got {value!r})')
-        return value
+    # --- dynamic parameters (agent_parameters.DYNAMIC): applied from the next use on -----------------
+    def _set_max_speed(self, value: float) -> None:
+        self.navigate.max_speed = value
+        if self.follow is not None:
+            self.follow.max_speed = value
 
-    def _path(self, p, name: str) -> Path:
-        path = Path(self._text(p, name))
-        if not path.is_file():
-            raise ConfigurationError(f'parameter {name}: no such file {path}')
-        return path
+    def _set_goal_tolerance(self, value: float) -> None:
+        self.navigate.tolerance = self.push.tolerance = value
 
-    @staticmethod
-    def _task(tasks, name: str, parameter: str):
-        if name not in tasks:
-            raise ConfigurationError(f"parameter {parameter}: unknown task '{name}' (known: {', '.join(tasks)}"
-                                     + (", or 'none'" if parameter == 'task' else '') + ')')
-        return tasks[name]
+    def _set_stream_rate(self, value: float) -> None:
+        self.stream_period = 1.0 / value
+        self.stream_timer.timer_period_ns = int(self.stream_period * 1e9)
+        self.stream_timer.reset()
 
-    @staticmethod
-    def _number(p, name: str, lowest: float, allowed: str, strict: bool = False) -> float:
-        value = p(name)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                or value < lowest or (strict and value == lowest):
-            raise ConfigurationError(f'parameter {name}: must be {allowed} (got {value!r})')
-        return float(value)
-
-    def _positive(self, p, name: str) -> float:
-        return self._number(p, name, 0.0, 'a number > 0', strict=True)
-
-    def _link_model(self, p) -> LinkModel:
-        loss = self._number(p, 'loss_probability', 0.0, 'a number in [0, 1]')
-        if loss > 1.0:
-            raise ConfigurationError(f'parameter loss_probability: must be a number in [0, 1] (got {loss!r})')
-        seed = p('seed')
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < -1:
-            raise ConfigurationError(f'parameter seed: must be an integer >= 0, or -1 (got {seed!r})')
-        data: dict = {'preset': p('link_preset'), 'loss_probability': loss, 'seed': None if seed == -1 else seed}
-        mean, std = p('link_delay_mean'), p('link_delay_std')
-        try:
-            if any(isinstance(v, (int, float)) and not isinstance(v, bool) and v >= 0 for v in (mean, std)):
-                base = LinkModel.from_dict({'preset': data['preset']}).delay
-                data['delay'] = {'distribution': 'normal',
-                                 'mean_s': float(mean) if mean >= 0 else base.mean_s,
-                                 'std_s': float(std) if std >= 0 else base.std_s}
-            return LinkModel.from_dict(data)
-        except (CoalitionError, ValueError, TypeError) as exc:
-            raise ConfigurationError(f'parameter {str(exc).replace("link.", "link_", 1)}') from None
+    def _set_tick_period(self, value: float) -> None:
+        self._tick_period = value
+        self.tick_timer.timer_period_ns = int(value * 1e9)
+        self.tick_timer.reset()
 
     # --- Outbox (what the core agent asks for) --------------------------------------------------
     def set_sensor(self, sensor: str, active: bool) -> None:
@@ -473,7 +388,8 @@ class SchemaAgentNode(Node):
                 self.first_clock = now
             # Start when every teammate listens on the channel (a request sent before would only
             # be retried), or after team_wait without them.
-            listening = 1 + self.channel.teammates_listening(lambda teammate: f'/{teammate}/coalition')
+            listening = 1 + self.channel.teammates_listening(
+                lambda teammate: self.names.teammate(teammate, 'coalition'))
             if listening < len(self.team) and now - self.first_clock < self.team_wait:
                 return
             if listening < len(self.team):

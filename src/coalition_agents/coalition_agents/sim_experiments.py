@@ -52,11 +52,18 @@ CHANNEL = '/coalition/channel'
 STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
 EXPERIMENT_FILE = 'coalition_agents.yaml'
 COLUMN_CONFIG = 'scenarios/fig9_column.yaml'
-NODE_PREFIX = 'schema_agent_'
+#: the agents' node name, in each robot's namespace (/<robot>/schema_agent)
+AGENT_NODE = 'schema_agent'
 #: the leader's status detail when it has its first executable coalition (schema_agent_node)
 FOUND_MARK = 'first executable coalition at'
 #: the start of the search in the leader's status detail (its own clock)
 SEARCH_START = re.compile(r'search started at (\d+(?:\.\d+)?) s')
+
+
+def agent_label(robot: str) -> str:
+    """The orchestration's label of ``robot``'s schema_agent process (its log file, ``until: exit``)."""
+    from collab_tools.orchestration.node_process import NodeSpec
+    return NodeSpec('coalition_agents', 'schema_agent', name=AGENT_NODE, namespace=f'/{robot}').label
 
 
 def status_topic(robot: str) -> str:
@@ -323,7 +330,7 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                  for index, robot in enumerate(robots)}
     (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
     (run_dir / 'team.yaml').write_text(yaml.safe_dump(team, sort_keys=False))
-    (run_dir / 'agents.yaml').write_text(yaml.safe_dump(agent_parameter_file(NODE_PREFIX, common, per_robot),
+    (run_dir / 'agents.yaml').write_text(yaml.safe_dump(agent_parameter_file(common, per_robot, AGENT_NODE),
                                                         sort_keys=False))
     experiment = load_experiment(config_dir / 'experiments' / EXPERIMENT_FILE)
     experiment['timeout'] = setup.timeout_s
@@ -339,13 +346,14 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                 nodes.append({**node, 'use_sim_time': setup.use_sim_time,
                               **({} if index == 0 else {'name': f'{node["executable"]}_{index + 1}', 'required': False}),
                               'parameters': list(node.get('parameters', [])) + [{'robots': group}]})
-        else:  # one schema_agent process per robot (the agents' parameter file is keyed by node name)
-            nodes.extend({'package': 'coalition_agents', 'executable': 'schema_agent', 'name': f'{NODE_PREFIX}{robot}',
-                          'use_sim_time': setup.use_sim_time, 'required': robot in setup.leaders,
-                          'parameters': [str(run_dir / 'agents.yaml'), {'robot': robot}]} for robot in robots)
+        else:  # one schema_agent process per robot, in its namespace (the parameter file is keyed by it)
+            nodes.extend({'package': 'coalition_agents', 'executable': 'schema_agent', 'name': AGENT_NODE,
+                          'namespace': f'/{robot}', 'use_sim_time': setup.use_sim_time,
+                          'required': robot in setup.leaders, 'parameters': [str(run_dir / 'agents.yaml')]}
+                         for robot in robots)
     experiment['nodes'] = nodes
     if not setup.hosted:
-        experiment['until'] = {'exit': f'{NODE_PREFIX}{setup.leaders[0]}'}
+        experiment['until'] = {'exit': agent_label(setup.leaders[0])}
     generated = run_dir / 'experiment.yaml'
     generated.write_text(yaml.safe_dump(experiment, sort_keys=False))
     return run_experiment(generated, config_dir, run_dir=run_dir, log=log)

@@ -33,6 +33,12 @@ def test_go_to_goal_reaches_the_goal_with_a_known_heading(start, goal):
     assert command == STOP
 
 
+def test_the_heading_probe_keeps_to_the_speed_limit():
+    # max_speed is a dynamic parameter of schema_agent: a limit below the probe speed holds for the probe too.
+    drive = GoToGoal(max_speed=0.05)
+    assert drive.command((0.0, 0.0), None, (3.0, 0.0)) == Velocity(0.05, 0.0)
+
+
 def test_go_to_goal_with_the_heading_estimated_from_motion_only():
     # The robot is localised by a teammate's fiducial (position only): first it drives straight to
     # learn its heading, then it steers on the estimate.

@@ -80,10 +80,11 @@ def test_clusters_team_renames_the_papers_sensor_names_for_the_bridge(config_dir
         placements_from_poses({'ghost': (0, 0, 0)}, {})
 
 
-def test_agent_parameter_file_is_keyed_by_node_name():
-    data = agent_parameter_file('schema_agent_', {'task': 'none'}, {'robot_2': {'task': 'navigation'}})
+def test_agent_parameter_file_is_keyed_by_the_node_in_its_robot_namespace():
+    data = agent_parameter_file({'task': 'none'}, {'robot_2': {'task': 'navigation'}})
+    # /**/<robot>/schema_agent: also when the robot's namespace sits under a session's (/sim1/robot_2)
     assert data == {'/**': {'ros__parameters': {'task': 'none'}},
-                    'schema_agent_robot_2': {'ros__parameters': {'task': 'navigation'}}}
+                    '/**/robot_2/schema_agent': {'ros__parameters': {'task': 'navigation'}}}
 
 
 def test_column_config_errors_name_the_field(tmp_path):

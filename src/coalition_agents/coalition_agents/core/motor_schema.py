@@ -105,7 +105,8 @@ class GoToGoal:
         if distance <= self.tolerance:
             return STOP
         if heading is None:
-            return Velocity(self.probe_speed, 0.0)  # drive straight to learn the heading
+            # drive straight to learn the heading, within the speed limit
+            return Velocity(min(self.probe_speed, self.max_speed), 0.0)
         error = wrap(math.atan2(goal[1] - position[1], goal[0] - position[0]) - heading)
         speed = self.max_speed * max(0.0, math.cos(error)) * min(1.0, distance / self.slow_radius)
         return Velocity(speed, _clip(self.gain * error, self.max_turn))

@@ -167,12 +167,14 @@ def capability_file(placements: Sequence[Placement], types: Mapping[str, Mapping
     return {'robot_types': robot_types, 'robots': {p.robot: p.robot_type for p in placements}}
 
 
-def agent_parameter_file(node_prefix: str, common: Mapping[str, object],
-                         per_robot: Mapping[str, Mapping[str, object]]) -> dict:
-    """ROS 2 parameter file for the hosted schema_agent nodes: ``common`` for all, then per robot."""
+def agent_parameter_file(common: Mapping[str, object], per_robot: Mapping[str, Mapping[str, object]],
+                         node_name: str = 'schema_agent') -> dict:
+    """ROS 2 parameter file for the schema_agent nodes: ``common`` for all, then per robot, keyed
+    ``/**/<robot>/<node_name>`` (the node runs in its robot's namespace, which may itself sit
+    under a session or team namespace)."""
     data: dict = {'/**': {'ros__parameters': dict(common)}}
     for robot, parameters in per_robot.items():
-        data[f'{node_prefix}{robot}'] = {'ros__parameters': dict(parameters)}
+        data[f'/**/{robot}/{node_name}'] = {'ros__parameters': dict(parameters)}
     return data
 
 

@@ -1,0 +1,42 @@
+"""The pure parts of the coalition nodes' parameters and of the agent host's arguments."""
+
+import pytest
+
+from coalition_agents.agent_host import forwarded_remappings
+from coalition_agents.agent_parameters import DYNAMIC, PARAMETERS, link_model, retry_policy
+
+
+def values(**changes):
+    return {**{name: default for name, (default, _, _) in PARAMETERS.items()}, **changes}
+
+
+def test_the_host_forwards_its_remappings_but_not_its_name_or_namespace():
+    argv = ['schema_agent_host', '--ros-args', '-r', '__node:=host_2', '-r', '__ns:=/sim1', '-r', '/clock:=/sim1/clock',
+            '--params-file', 'p.yaml', '--remap', 'coalition/channel:=chan', '-r', 'schema_agent_host:foo:=bar',
+            '-r', 'schema_agent:scan:=scan_front', '-p', 'x:=1', '--', '-r', 'a:=b']
+    assert forwarded_remappings(argv) == ['-r', '/clock:=/sim1/clock', '-r', 'coalition/channel:=chan',
+                                          '-r', 'schema_agent:scan:=scan_front']
+    assert forwarded_remappings(['schema_agent_host']) == []
+
+
+def test_every_dynamic_parameter_is_declared_and_documented():
+    assert set(DYNAMIC) <= set(PARAMETERS)
+    for name in DYNAMIC:
+        assert 'dynamic' in PARAMETERS[name][1]
+
+
+def test_link_model_from_the_parameters():
+    model = link_model(values(loss_probability=0.25, seed=3))
+    assert (model.loss_probability, model.seed) == (0.25, 3)
+    assert model.delay.mean_s == pytest.approx(0.00385)  # the paper_fig9 preset
+    model = link_model(values(link_delay_mean=0.02, seed=-1))
+    assert (model.delay.mean_s, model.delay.std_s, model.seed) == (0.02, pytest.approx(0.00505), None)
+    assert link_model(values(link_preset='ideal')).sample() == (True, 0.0)
+    jitter = link_model(values(link_preset='ideal', link_delay_std=0.01)).delay  # the preset's mean, 0
+    assert (jitter.distribution, jitter.mean_s, jitter.std_s) == ('normal', 0.0, 0.01)
+
+
+def test_retry_policy_from_the_parameters():
+    policy = retry_policy(values(tail_timeout=12.0, peer_timeout=40.0, reorder_window=0.1))
+    assert (policy.tail_timeout_s, policy.max_timeout_s, policy.peer_timeout_s, policy.message_lifetime_s,
+            policy.reorder_window_s) == (12.0, 12.0, 40.0, 40.0, 0.1)
