@@ -1,21 +1,30 @@
 """leader_planner and follower_executor drive both arms through the bridge until the goal.
 
+Each runs in its arm's namespace (/leader_arm/leader_planner, /follower_arm/follower_executor).
 Only topics connect them: the camera (state estimate), /sgcm/guidance (leader -> follower),
 /sgcm/follower_report (round over) and the arms' pick_and_place actions.
 """
 
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, Image
 from sgcm_interfaces.msg import Guidance, GridState, Move
 
 from collab_tools.orchestration.node_process import NodeSpec
 from bridge_helpers import bridge_spec, wait_for_subscriber
+from pybullet_bridge.core.scenario import parse_scenario
+from pybullet_bridge.core.scene import Scene
 from sgcm.core.rearrangement import RearrangementModel
 from sgcm.core.scenario_builder import build_scenario
-from sgcm.core.task_config import load_cases, load_task
+from sgcm.core.task_config import Case, load_cases, load_task
+
+LEADER_NS, FOLLOWER_NS = '/leader_arm', '/follower_arm'
 
 
 @pytest.fixture
@@ -23,23 +32,34 @@ def task_file(config_dir):
     return config_dir / 'sgcm' / 'task.yaml'
 
 
-def start_case(session, tmp_path, task_file, config_dir, case_name, follower_params=None):
+def leader_spec(task_file, **parameters) -> NodeSpec:
+    return NodeSpec('sgcm', 'leader_planner', name='leader_planner', namespace=LEADER_NS,
+                    parameters=[{'task_file': str(task_file), **parameters}], required=False)
+
+
+def follower_spec(task_file, **parameters) -> NodeSpec:
+    return NodeSpec('sgcm', 'follower_executor', name='follower_executor', namespace=FOLLOWER_NS,
+                    parameters=[{'task_file': str(task_file), **parameters}], required=False)
+
+
+def start_case(session, tmp_path, task_file, config_dir, case_name, follower_params=None, leader_params=None,
+               follower=True, **bridge_params):
     task = load_task(task_file)
     case = next(c for c in load_cases(config_dir / 'sgcm' / 'cases.yaml', task) if c.name == case_name)
     scenario = tmp_path / 'scenario.yaml'
     scenario.write_text(yaml.safe_dump(build_scenario(task, case, execution_failures=False)))
-    session.start(bridge_spec(scenario, ground_truth_rate=5.0, start_paused=False))
-    session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner',
-                           parameters=[{'task_file': str(task_file)}], required=False))
-    session.start(NodeSpec('sgcm', 'follower_executor', name='follower_executor',
-                           parameters=[{'task_file': str(task_file), **(follower_params or {})}],
-                           required=False))
+    session.start(bridge_spec(scenario, **{'ground_truth_rate': 5.0, 'start_paused': False, **bridge_params}))
+    session.start(leader_spec(task_file, **(leader_params or {})))
+    if follower:
+        session.start(follower_spec(task_file, **(follower_params or {})))
     return task, case
 
 
 def test_leader_and_follower_complete_a_case_through_topics(session, tmp_path, task_file, config_dir):
     task, case = start_case(session, tmp_path, task_file, config_dir, 'case_8')
     model = RearrangementModel(task)
+    # One node per arm, named in its arm's namespace.
+    session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
     guidance = []
     session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
     final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
@@ -81,25 +101,97 @@ def test_follower_drops_malformed_guidance_and_keeps_working(session, tmp_path, 
     assert 'dropped malformed guidance for round 1000' in log
 
 
-@pytest.mark.parametrize('executable, parameters, expected', [
-    ('leader_planner', {}, 'parameter task_file: required'),
-    ('leader_planner', {'strategy': 'telepathy'}, 'parameter strategy: must be one of sgcm, greedy'),
-    ('leader_planner', {'solver': 'oracle'}, "parameter solver: must be one of fast, milp"),
-    ('follower_executor', {'behaviour': 'sneaky'}, 'parameter behaviour: must be one of'),
-    ('follower_executor', {'deviation_probability': 1.5}, 'deviation_probability: must be in [0, 1]'),
+@pytest.mark.parametrize('executable, namespace, parameters, expected', [
+    ('leader_planner', LEADER_NS, {}, 'parameter task_file: required'),
+    ('leader_planner', LEADER_NS, {'strategy': 'telepathy'}, 'parameter strategy: must be one of sgcm, greedy'),
+    ('leader_planner', LEADER_NS, {'solver': 'oracle'}, "parameter solver: must be one of fast, milp"),
+    # Out of a descriptor's range or of the wrong type: rclpy's own check, naming the parameter.
+    ('leader_planner', LEADER_NS, {'horizon': 7}, 'Parameter horizon out of range'),
+    ('leader_planner', LEADER_NS, {'settle_time': 'long'}, "parameter 'settle_time' to 'long'"),
+    ('leader_planner', None, {}, "must run in its robot's namespace"),
+    ('leader_planner', LEADER_NS, {'robot': 'follower_arm'}, "parameter robot: 'follower_arm' differs"),
+    ('follower_executor', FOLLOWER_NS, {'behaviour': 'sneaky'}, 'parameter behaviour: must be one of'),
+    ('follower_executor', FOLLOWER_NS, {'deviation_probability': 1.5}, 'Parameter deviation_probability out of range'),
+    ('follower_executor', FOLLOWER_NS, {'deviation_rounds': [2, -1]}, 'deviation_rounds'),
+    ('follower_executor', None, {}, "must run in its robot's namespace"),
 ])
-def test_bad_parameters_stop_the_node_with_a_message(session, task_file, executable, parameters, expected):
-    if parameters:
+def test_bad_parameters_stop_the_node_with_a_message(session, task_file, executable, namespace, parameters,
+                                                     expected):
+    if parameters or namespace is None:
         parameters = {'task_file': str(task_file), **parameters}
-    process = session.start(NodeSpec('sgcm', executable, name=executable, parameters=[parameters]))
+    process = session.start(NodeSpec('sgcm', executable, name=executable, namespace=namespace,
+                                     parameters=[parameters]))
     assert session.wait_for_exit(executable, timeout=60.0) == 2
-    assert expected in process.log_path.read_text()
+    log = process.log_path.read_text()
+    assert expected in log
+    assert 'Traceback' not in log
 
 
 def test_bad_task_file_names_the_field(session, tmp_path):
     bad = tmp_path / 'task.yaml'
     bad.write_text('colours: {red: {goal: [5, 0], rgb: [1, 0, 0]}}\n')
-    process = session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner',
+    process = session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner', namespace=LEADER_NS,
                                      parameters=[{'task_file': str(bad)}]))
     assert session.wait_for_exit('leader_planner', timeout=60.0) == 2
     assert 'colours.red.goal: cell [5, 0] is outside the 3x3 grid' in process.log_path.read_text()
+
+
+def image_msg(array, encoding, stamp, frame_id):
+    array = np.ascontiguousarray(array)
+    msg = Image(height=int(array.shape[0]), width=int(array.shape[1]), encoding=encoding,
+                is_bigendian=int(sys.byteorder == 'big'), step=int(array.strides[0]), data=array.tobytes())
+    msg.header.stamp, msg.header.frame_id = stamp, frame_id
+    return msg
+
+
+def test_a_best_effort_camera_feeds_the_leader(session, tmp_path, task_file, config_dir):
+    """A camera driver with sensor-data QoS (best effort) is the leader's only camera.
+
+    The bridge simulates case_8 but publishes no images; the test renders the same table with
+    the red cube in another cell and publishes that frame best effort. The leader's first
+    guidance estimates the test's table, not the bridge's: the frame it used is the test's.
+    """
+    task, case = start_case(session, tmp_path, task_file, config_dir, 'case_8', follower=False,
+                            publish_camera=False)
+    red = task.colours.index('red')
+    moved = case.counts.copy()
+    source = int(np.flatnonzero(moved[:, red])[0])
+    target = next(cell for cell in range(task.cells) if cell != source and cell != task.goals[red]
+                  and not moved[cell].any())
+    moved[source, red], moved[target, red] = 0, 1
+    scenario = build_scenario(task, Case('seen', moved), execution_failures=False)
+    node = session.observer.node
+    publishers = {topic: node.create_publisher(kind, f'/top_camera/{topic}', qos_profile_sensor_data)
+                  for topic, kind in (('image_raw', Image), ('labels', Image), ('camera_info', CameraInfo))}
+    guidance = []
+    node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
+    legend = session.wait_for_message('/top_camera/label_legend', 'bridge_interfaces/msg/LabelLegend',
+                                      timeout=60, latched=True)
+    with Scene(parse_scenario(scenario, Path(tmp_path))) as scene:
+        # Same entities, same labels as the bridge's scene: only the red cube's place differs.
+        assert [(e.label, e.name, e.kind) for e in legend.entries] == scene.label_legend()
+        scene.step(60)
+        frame = scene.render()
+        camera = scene.camera
+        info = CameraInfo(width=camera.width, height=camera.height, distortion_model='plumb_bob', d=[0.0] * 5,
+                          k=[float(v) for v in camera.intrinsics().flatten()],
+                          r=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                          p=[float(v) for v in camera.projection().flatten()])
+    clock = session.wait_for_message('/clock', 'rosgraph_msgs/msg/Clock', timeout=30)
+    info.header.stamp, info.header.frame_id = clock.clock, 'top_camera'
+    messages = {'image_raw': image_msg(frame.rgb, 'rgb8', clock.clock, 'top_camera'),
+                'labels': image_msg(frame.labels, '16UC1', clock.clock, 'top_camera'), 'camera_info': info}
+    for publisher in publishers.values():
+        wait_for_subscriber(publisher, timeout=30.0)
+    deadline = time.monotonic() + 180.0
+    while not guidance:  # a camera driver publishes again and again; best effort may drop a frame
+        assert time.monotonic() < deadline, 'the leader published no guidance from the best-effort frames'
+        session.check_alive()
+        for topic, publisher in publishers.items():
+            publisher.publish(messages[topic])
+        time.sleep(0.5)
+    first = guidance[0]
+    assert first.round == 1
+    model = RearrangementModel(task)
+    assert np.array_equal(np.array(first.state.counts), model.state_of(Case('seen', moved)))
+    assert not np.array_equal(np.array(first.state.counts), model.state_of(case))

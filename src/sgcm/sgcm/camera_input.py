@@ -17,8 +17,14 @@ from .core.task_config import TaskConfig
 CUBE_KIND = 'cube'
 
 
+def check_camera(value: str) -> str | None:
+    """Parameter check for a camera namespace (names.RobotNode.team makes it absolute)."""
+    return None if value.strip('/') else "must name the camera's namespace (got '')"
+
+
 class CameraInput:
-    def __init__(self, node: Node, task: TaskConfig, camera: str = 'top_camera'):
+    def __init__(self, node: Node, task: TaskConfig, camera: str = '/top_camera'):
+        # camera: absolute namespace (a team-shared sensor); TopCamera subscribes with sensor-data QoS
         self.task = task
         self.camera = TopCamera(node, camera, with_labels=True)
 

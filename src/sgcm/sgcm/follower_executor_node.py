@@ -1,10 +1,15 @@
 """follower_executor: the SGCM follower arm.
 
-Hears only the leader's Guidance (one-way communication) and senses the table through
-the top-view camera. For every new round it waits until the table has settled after the
-leader's move, chooses its move by its configured behaviour (obedient, myopic,
-zero_trust, random, adversarial; see sgcm.core.follower_behaviour), executes it through
-/<follower_arm>/pick_and_place and reports what it did on /sgcm/follower_report.
+Runs in its arm's namespace (``ros2 run sgcm follower_executor --ros-args -r __ns:=/follower_arm``).
+Hears only the leader's Guidance on ``<team>/sgcm/guidance`` (one-way communication) and
+senses the table through the top-view camera. For every new round it waits until the table
+has settled after the leader's move, chooses its move by its configured behaviour (obedient,
+myopic, zero_trust, random, adversarial; see sgcm.core.follower_behaviour), executes it
+through the arm's ``pick_and_place`` action and reports what it did on
+``<team>/sgcm/follower_report``.
+
+Dynamic parameter: settle_time (applied to the round in progress). The behaviour and its
+deviations define the experiment's follower and stay as started (read-only).
 """
 
 import sys
@@ -13,62 +18,66 @@ from bridge_interfaces.action import PickAndPlace
 from rclpy.action import ActionClient
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from rclpy.time import Time
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools.names import RobotNode
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
+from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .camera_input import CameraInput
-from .core.follower_behaviour import Follower, FollowerSettings
+from .camera_input import CameraInput, check_camera
+from .core.follower_behaviour import BEHAVIOURS, Follower, FollowerSettings
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task
-from .ros_conversions import action_from_msg, counts_from_msg, move_msg, pick_and_place_goal
+from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, action_from_msg, counts_from_msg, move_msg, \
+    pick_and_place_goal
 
 
 class FollowerExecutor(Node):
     def __init__(self):
         super().__init__('follower_executor')
-        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
-        declare('task_file', '', 'task YAML (config/sgcm/task.yaml)')
-        declare('behaviour', 'obedient', 'obedient | myopic | zero_trust | random | adversarial')
-        declare('deviation_probability', 0.0, 'random behaviour: probability of a random move per round')
-        declare('deviation_rounds', [0], 'random behaviour: rounds with a random move (0 = none)')
-        declare('seed', 0, 'seed of the random behaviour')
-        declare('follower_arm', 'follower_arm', 'arm entity the follower drives')
-        declare('camera', 'top_camera', 'camera namespace')
-        declare('settle_time', 0.5, 'sim seconds after the guidance before observing the table')
-        declare('exit_when_done', True, 'exit when the leader announces the end of the task')
-        p = lambda name: self.get_parameter(name).value  # noqa: E731
-        if not p('task_file'):
-            raise ConfigurationError('parameter task_file: required (path to the task YAML)')
+        params = self.params = NodeParameters(self)
+        self.names = RobotNode(self, params)
+        task_file = params.declare('task_file', '', 'task YAML (config/sgcm/task.yaml)', required=True)
+        behaviour = params.declare('behaviour', 'obedient', 'how the follower chooses his move',
+                                   choices=BEHAVIOURS)
+        probability = params.declare('deviation_probability', 0.0,
+                                     'random behaviour: probability of a random move per round', low=0.0, high=1.0)
+        deviation_rounds = params.declare('deviation_rounds', [0], 'random behaviour: rounds with a random '
+                                          'move, numbered from 1 (0 = none)', low=0)
+        seed = params.declare('seed', 0, 'seed of the random behaviour', low=0)
+        camera = params.declare('camera', 'top_camera', 'camera namespace, under the team namespace',
+                                check=check_camera)
+        settle_time = params.declare('settle_time', 0.5, 'sim seconds after the guidance before observing '
+                                     'the table (applied to the round in progress)', low=0.0,
+                                     on_change=self._set_settle_time)
+        self.exit_when_done = params.declare('exit_when_done', True,
+                                             'exit when the leader announces the end of the task')
         try:
-            self.task = load_task(p('task_file'))
+            self.task = load_task(task_file)
         except TaskConfigError as error:
             raise ConfigurationError(f'parameter task_file: {error}') from None
         self.model = RearrangementModel(self.task)
-        rounds = tuple(int(r) for r in p('deviation_rounds') if int(r) != 0)
-        try:
-            settings = FollowerSettings(p('behaviour'), float(p('deviation_probability')), rounds)
-        except (TypeError, ValueError) as error:
-            raise ConfigurationError(f'parameter {error}') from None
-        self.settings = settings
-        self.follower = Follower(self.model, settings, seed=int(p('seed')))
-        self.settle = Duration(seconds=float(p('settle_time')))
-        self.exit_when_done = bool(p('exit_when_done'))
-        self.camera = CameraInput(self, self.task, p('camera'))
-        self.arm = ActionClient(self, PickAndPlace, f"/{p('follower_arm')}/pick_and_place")
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.report_pub = self.create_publisher(FollowerReport, '/sgcm/follower_report', reliable)
-        self.create_subscription(Guidance, '/sgcm/guidance', self._on_guidance, reliable)
+        rounds = tuple(int(r) for r in deviation_rounds if int(r) != 0)
+        self.settings = settings = FollowerSettings(behaviour, probability, rounds)
+        self.follower = Follower(self.model, settings, seed=seed)
+        self._set_settle_time(settle_time)
+        self.camera = CameraInput(self, self.task, self.names.team(camera))
+        self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
+        self.report_pub = self.create_publisher(FollowerReport, self.names.team(FOLLOWER_REPORT), RELIABLE)
+        self.create_subscription(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)
         self.finished = Future()
         self.last_round = 0
         self.pending = None     # guidance of the round being handled
         self.busy = False
         self.create_timer(0.05, self._tick)
-        self.get_logger().info(f'behaviour {settings.behaviour}'
+        self.get_logger().info(f'arm {self.names.robot}, behaviour {settings.behaviour}'
                                + (f', deviation p={settings.deviation_probability}, rounds {list(rounds)}'
                                   if settings.behaviour == 'random' else ''))
+
+    def _set_settle_time(self, value: float) -> None:
+        self.settle = Duration(seconds=float(value))
 
     def _on_guidance(self, msg: Guidance) -> None:
         if msg.task_complete or msg.status:
@@ -87,15 +96,16 @@ class FollowerExecutor(Node):
             self.get_logger().error(f'dropped malformed guidance for round {msg.round}: {error}')
             return
         self.last_round = msg.round
-        self.pending = (msg.round, Time.from_msg(msg.header.stamp) + self.settle, round_state,
-                        leader_action, recommended)
+        # The settling is counted from the guidance's stamp when the frame is checked, so a
+        # settle_time set meanwhile applies to this round too.
+        self.pending = (msg.round, Time.from_msg(msg.header.stamp), round_state, leader_action, recommended)
 
     def _tick(self) -> None:
         if self.pending is None or self.busy:
             return
-        number, ready_after, round_state, leader_action, recommended = self.pending
+        number, guided_at, round_state, leader_action, recommended = self.pending
         stamp = self.camera.frame_time()
-        if stamp is None or stamp < ready_after or not self.arm.server_is_ready():
+        if stamp is None or stamp < guided_at + self.settle or not self.arm.server_is_ready():
             return
         try:
             estimate = self.camera.estimate()

@@ -1,13 +1,17 @@
 """leader_planner: the SGCM leader arm (Algorithm 1 on the simulated table).
 
+Runs in its arm's namespace (``ros2 run sgcm leader_planner --ros-args -r __ns:=/leader_arm``).
 Each round: estimate the state from the top-view camera (labels + RGB; no ground
 truth), solve the feedback Stackelberg equilibrium over the horizon (or act greedily,
-for the baseline), execute her own move through /<leader_arm>/pick_and_place, publish
-the Guidance (her move and its outcome, the recommended follower move, predicted
-values), then wait until the follower reports the round over, let the table settle and
-observe again. The task ends at the goal, when a round passes with both arms idle
-(stuck), or at the round limit; the node then exits (exit_when_done) so an
-orchestration script can wait for it.
+for the baseline), execute her own move through the arm's ``pick_and_place`` action, publish
+the Guidance on ``<team>/sgcm/guidance`` (her move and its outcome, the recommended follower
+move, predicted values), then wait until the follower reports the round over on
+``<team>/sgcm/follower_report``, let the table settle and observe again. The task ends at
+the goal, when a round passes with both arms idle (stuck), or at the round limit; the node
+then exits (exit_when_done) so an orchestration script can wait for it.
+
+Dynamic parameters (applied from the next decision that uses them): horizon, round_limit,
+follower_timeout (also to the wait in progress), settle_time (also to the settling in progress).
 """
 
 import sys
@@ -17,95 +21,107 @@ from bridge_interfaces.action import PickAndPlace
 from rclpy.action import ActionClient
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools.names import RobotNode
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
+from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .camera_input import CameraInput
+from .camera_input import CameraInput, check_camera
 from .core.follower_behaviour import greedy_action
 from .core.fse import FSEPlanner
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
+from .core.stage_game import SOLVERS
 from .core.task_config import TaskConfigError, load_task
-from .ros_conversions import grid_state_msg, move_msg, pick_and_place_goal
+from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
 
 STRATEGIES = ('sgcm', 'greedy')
+#: The task file's own range for game.horizon (core.task_config).
+MAX_HORIZON = 6
 
 
 class LeaderPlanner(Node):
     def __init__(self):
         super().__init__('leader_planner')
-        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
-        declare('task_file', '', 'task YAML (config/sgcm/task.yaml)')
-        declare('horizon', 0, 'T; 0 = the task file game.horizon')
-        declare('solver', 'fast', 'stage-game solver: fast | milp')
-        declare('strategy', 'sgcm', 'sgcm (guidance) | greedy (baseline: no guidance)')
-        declare('leader_arm', 'leader_arm', 'arm entity the leader drives')
-        declare('camera', 'top_camera', 'camera namespace')
-        declare('follower_timeout', 60.0, 'sim seconds to wait for the follower to end a round')
-        declare('settle_time', 0.5, 'sim seconds to let the table settle before observing')
-        declare('round_limit', 0, 'rounds before giving up; 0 = the task file game.round_limit')
-        declare('seed', 0, 'seed for sampling a mixed leader policy')
-        declare('exit_when_done', True, 'exit the node when the task has ended')
-        p = lambda name: self.get_parameter(name).value  # noqa: E731
-        if not p('task_file'):
-            raise ConfigurationError('parameter task_file: required (path to the task YAML)')
-        horizon = p('horizon')
-        if not isinstance(horizon, int) or horizon < 0:
-            raise ConfigurationError(f'parameter horizon: must be an integer >= 0 (got {horizon!r})')
+        params = self.params = NodeParameters(self)
+        self.names = RobotNode(self, params)
+        task_file = params.declare('task_file', '', 'task YAML (config/sgcm/task.yaml)', required=True)
+        horizon = params.declare('horizon', 0, 'T, the prediction horizon; 0 = the task file game.horizon '
+                                 '(applied from the next round)', low=0, high=MAX_HORIZON,
+                                 on_change=self._set_horizon)
+        solver = params.declare('solver', 'fast', 'stage-game solver', choices=tuple(SOLVERS))
+        self.strategy = params.declare('strategy', 'sgcm', 'sgcm (guidance) | greedy (baseline: no guidance)',
+                                       choices=STRATEGIES)
+        camera = params.declare('camera', 'top_camera', 'camera namespace, under the team namespace',
+                                check=check_camera)
+        follower_timeout = params.declare(
+            'follower_timeout', 60.0, 'sim seconds to wait for the follower to end a round '
+            '(applied to the wait in progress)', low=0.0, on_change=self._set_follower_timeout)
+        settle_time = params.declare('settle_time', 0.5, 'sim seconds to let the table settle before observing '
+                                     '(applied to the settling in progress)', low=0.0,
+                                     on_change=self._set_settle_time)
+        round_limit = params.declare('round_limit', 0, 'rounds before giving up; 0 = the task file '
+                                     'game.round_limit (applied at the next observation)', low=0,
+                                     on_change=self._set_round_limit)
+        seed = params.declare('seed', 0, 'seed for sampling a mixed leader policy', low=0)
+        self.exit_when_done = params.declare('exit_when_done', True, 'exit the node when the task has ended')
         try:
-            self.task = load_task(p('task_file'), {'horizon': horizon} if horizon else None)
+            self.task = load_task(task_file)
         except TaskConfigError as error:
             raise ConfigurationError(f'parameter task_file: {error}') from None
-        self.strategy = p('strategy')
-        if self.strategy not in STRATEGIES:
-            raise ConfigurationError(f"parameter strategy: must be one of {', '.join(STRATEGIES)} "
-                                     f"(got '{self.strategy}')")
         self.model = RearrangementModel(self.task)
-        try:
-            self.planner = FSEPlanner(self.model, solver=p('solver'))
-        except ValueError as error:
-            raise ConfigurationError(f'parameter {error}') from None
-        for name in ('follower_timeout', 'settle_time'):
-            value = p(name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
-                raise ConfigurationError(f'parameter {name}: must be a number >= 0 (got {value!r})')
-        self.follower_timeout = Duration(seconds=float(p('follower_timeout')))
-        self.settle = Duration(seconds=float(p('settle_time')))
-        self.round_limit = p('round_limit') or self.task.round_limit
-        self.exit_when_done = bool(p('exit_when_done'))
-        self.rng = np.random.default_rng(p('seed'))
+        self.solver = solver
+        self._set_horizon(horizon)
+        self._set_follower_timeout(follower_timeout)
+        self._set_settle_time(settle_time)
+        self._set_round_limit(round_limit)
+        self.rng = np.random.default_rng(seed)
 
-        self.camera = CameraInput(self, self.task, p('camera'))
-        self.arm = ActionClient(self, PickAndPlace, f"/{p('leader_arm')}/pick_and_place")
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.guidance_pub = self.create_publisher(Guidance, '/sgcm/guidance', reliable)
-        self.create_subscription(FollowerReport, '/sgcm/follower_report', self._on_report, reliable)
+        self.camera = CameraInput(self, self.task, self.names.team(camera))
+        self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
+        self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
+        self.create_subscription(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
         self.finished = Future()
         self.outcome = ''
 
         self.round = 0
         self.phase = 'observe'
-        self.ready_after = None          # sim time after which a camera frame counts
-        self.follower_deadline = None
+        self.round_ended = None          # sim time the last round ended; frames count after + settle
+        self.guidance_time = None        # sim time of the round's guidance; the follower has until + timeout
         self.pending = None              # the round being executed
         self.timer = self.create_timer(0.05, self._tick)
         self.get_logger().info(
-            f"strategy {self.strategy}, horizon T={self.planner.horizon}, solver {p('solver')}, "
-            f'{self.task.rows}x{self.task.cols} grid, colours {", ".join(self.task.colours)}')
+            f'arm {self.names.robot}, strategy {self.strategy}, horizon T={self.planner.horizon}, '
+            f'solver {solver}, {self.task.rows}x{self.task.cols} grid, colours {", ".join(self.task.colours)}')
+
+    # --- dynamic parameters ----------------------------------------------------------
+    def _set_horizon(self, value: int) -> None:
+        # The next round plans with it; the planner holds no state between rounds.
+        self.planner = FSEPlanner(self.model, horizon=value or self.task.horizon, solver=self.solver)
+
+    def _set_follower_timeout(self, value: float) -> None:
+        self.follower_timeout = Duration(seconds=float(value))
+
+    def _set_settle_time(self, value: float) -> None:
+        self.settle = Duration(seconds=float(value))
+
+    def _set_round_limit(self, value: int) -> None:
+        self.round_limit = value or self.task.round_limit
 
     # --- round state machine ---------------------------------------------------------
     def _tick(self) -> None:
         if self.phase == 'observe':
             self._observe()
-        elif self.phase == 'wait_follower' and self.get_clock().now() > self.follower_deadline:
+        elif self.phase == 'wait_follower' and \
+                self.get_clock().now() > self.guidance_time + self.follower_timeout:
             self.get_logger().warn(f'round {self.round}: no follower report within '
                                    f'{self.follower_timeout.nanoseconds / 1e9:.0f} s; observing anyway')
             self._end_round(follower_idle=False)
 
     def _observe(self) -> None:
         stamp = self.camera.frame_time()
-        if stamp is None or (self.ready_after is not None and stamp < self.ready_after):
+        if stamp is None or (self.round_ended is not None and stamp < self.round_ended + self.settle):
             return
         if not self.arm.server_is_ready():
             return
@@ -188,7 +204,7 @@ class LeaderPlanner(Node):
             msg.planning_seconds = plan.seconds
         self.guidance_pub.publish(msg)
         self.phase = 'wait_follower'
-        self.follower_deadline = self.get_clock().now() + self.follower_timeout
+        self.guidance_time = self.get_clock().now()
 
     def _on_report(self, msg: FollowerReport) -> None:
         if self.phase != 'wait_follower' or msg.round != self.round:
@@ -197,7 +213,7 @@ class LeaderPlanner(Node):
 
     def _end_round(self, follower_idle: bool) -> None:
         leader_idle = self.pending['action'] == EMPTY
-        self.ready_after = self.get_clock().now() + self.settle
+        self.round_ended = self.get_clock().now()
         if leader_idle and follower_idle:
             # Both arms idle away from the goal: the same state comes back, and with it the
             # same decisions (the greedy pair's chattering/stuck case).

@@ -13,6 +13,11 @@ from .core.perception import StateEstimate
 from .core.rearrangement import EMPTY, Move as CoreMove, RearrangementModel
 from .core.task_config import TaskConfig
 
+# The SGCM channels, under the team namespace (names.RobotNode.team): leader -> follower, and
+# the follower's "round over".
+GUIDANCE = 'sgcm/guidance'
+FOLLOWER_REPORT = 'sgcm/follower_report'
+
 
 def grid_state_msg(task: TaskConfig, counts: np.ndarray) -> GridState:
     counts = np.asarray(counts).reshape(-1)

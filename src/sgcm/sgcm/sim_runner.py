@@ -1,9 +1,9 @@
 """Run SGCM cases in simulation and read them back from their bags.
 
 ``run_case`` generates the case's bridge scenario into the run directory and runs
-config/experiments/sgcm_case.yaml (bridge + leader_planner + follower_executor, all
-recorded) with the per-run parameters; ``episode_from_bag`` rebuilds the episode from
-the recorded /sgcm/guidance and /sgcm/follower_report messages.
+config/experiments/sgcm_case.yaml (bridge, /leader_arm/leader_planner and
+/follower_arm/follower_executor, all recorded) with the per-run parameters; ``episode_from_bag``
+rebuilds the episode from the recorded /sgcm/guidance and /sgcm/follower_report messages.
 """
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from collab_tools.core.bag_analysis import read_messages
+from collab_tools.names import join
 from collab_tools.orchestration.experiment import ExperimentResult, run_experiment
 
 from .core.episode import EpisodeResult
@@ -20,10 +21,11 @@ from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
 from .core.round_log import LoggedRound, episode_from_log
 from .core.scenario_builder import build_scenario
 from .core.task_config import Case, TaskConfig
-from .ros_conversions import action_from_msg
+from .ros_conversions import FOLLOWER_REPORT, GUIDANCE as GUIDANCE_TOPIC, action_from_msg
 
-GUIDANCE = '/sgcm/guidance'
-REPORT = '/sgcm/follower_report'
+# As recorded by a run in the default team namespace.
+GUIDANCE = join('/', GUIDANCE_TOPIC)
+REPORT = join('/', FOLLOWER_REPORT)
 
 
 def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, config_dir: Path,
@@ -44,13 +46,17 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
                           overrides=overrides, log=log)
 
 
-def episode_from_bag(model: RearrangementModel, bag: Path, method: str) -> EpisodeResult:
+def episode_from_bag(model: RearrangementModel, bag: Path, method: str,
+                     namespace: str = '/') -> EpisodeResult:
+    """namespace: the team namespace the run's channels were under (an experiment's namespace)."""
+    guidance_topic, report_topic = join(namespace, GUIDANCE_TOPIC), join(namespace, FOLLOWER_REPORT)
+
     def action(robot, move):  # the bag's messages have the same fields as the ROS ones
         return action_from_msg(model, robot, move)
 
     guidance, reports, final = {}, {}, None
-    for topic, _, msg in read_messages(bag, [GUIDANCE, REPORT]):
-        if topic == GUIDANCE:
+    for topic, _, msg in read_messages(bag, [guidance_topic, report_topic]):
+        if topic == guidance_topic:
             if msg.task_complete or msg.status:
                 final = msg
             else:

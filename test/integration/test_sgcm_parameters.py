@@ -1,0 +1,194 @@
+"""set_parameters on the SGCM nodes: every dynamic parameter changes what the node does, every
+other one is refused (read-only), and so is a value of the wrong type or out of range.
+
+Times are compared in simulated time (message stamps), so a slow machine cannot fail them.
+"""
+
+import time
+
+import pytest
+import yaml
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.time import Time
+from sgcm_interfaces.msg import FollowerReport, Guidance, Move
+
+from collab_tools.orchestration.node_process import NodeSpec
+from collab_tools.qos import RELIABLE
+from bridge_helpers import bridge_spec, set_paused, wait_for_subscriber
+from sgcm.core.rearrangement import RearrangementModel
+from sgcm.core.scenario_builder import build_scenario
+from sgcm.core.task_config import load_cases, load_task
+from sgcm.ros_conversions import grid_state_msg
+
+LEADER = '/leader_arm/leader_planner'
+FOLLOWER = '/follower_arm/follower_executor'
+LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time'}
+FOLLOWER_DYNAMIC = {'settle_time'}
+ROS_OWN = {'use_sim_time'}  # rclpy's, not the node's
+
+
+def leader_spec(task_file, **parameters) -> NodeSpec:
+    return NodeSpec('sgcm', 'leader_planner', name='leader_planner', namespace='/leader_arm',
+                    parameters=[{'task_file': str(task_file), **parameters}], required=False)
+
+
+def follower_spec(task_file, **parameters) -> NodeSpec:
+    return NodeSpec('sgcm', 'follower_executor', name='follower_executor', namespace='/follower_arm',
+                    parameters=[{'task_file': str(task_file), **parameters}], required=False)
+
+
+@pytest.fixture
+def task_file(config_dir):
+    return config_dir / 'sgcm' / 'task.yaml'
+
+
+def start_bridge(session, tmp_path, task_file, config_dir, case_name='case_8', **parameters):
+    task = load_task(task_file)
+    case = next(c for c in load_cases(config_dir / 'sgcm' / 'cases.yaml', task) if c.name == case_name)
+    scenario = tmp_path / 'scenario.yaml'
+    scenario.write_text(yaml.safe_dump(build_scenario(task, case, execution_failures=False)))
+    session.start(bridge_spec(scenario, ground_truth_rate=5.0, **parameters))
+    return task, case
+
+
+def set_parameters(session, node, **values):
+    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()
+                                                for name, value in values.items()])
+    return session.call_service(f'{node}/set_parameters', 'rcl_interfaces/srv/SetParameters', request).results
+
+
+def set_one(session, node, name, value):
+    (result,) = set_parameters(session, node, **{name: value})
+    return result
+
+
+def get_values(session, node, names):
+    response = session.call_service(f'{node}/get_parameters', 'rcl_interfaces/srv/GetParameters',
+                                    GetParameters.Request(names=list(names)))
+    return {name: parameter_value_to_python(value) for name, value in zip(names, response.values)}
+
+
+def descriptors(session, node):
+    names = session.call_service(f'{node}/list_parameters', 'rcl_interfaces/srv/ListParameters',
+                                 ListParameters.Request()).result.names
+    response = session.call_service(f'{node}/describe_parameters', 'rcl_interfaces/srv/DescribeParameters',
+                                    DescribeParameters.Request(names=list(names)))
+    return {d.name: d for d in response.descriptors if d.name not in ROS_OWN}
+
+
+def another_value(value):
+    """A different value of the same type (so a refusal cannot be a type error)."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, (int, float)):
+        return value + 1
+    if isinstance(value, str):
+        return value + '_x'
+    return list(value) + [list(value)[0]]
+
+
+def check_parameter_contract(session, node, dynamic):
+    """Descriptors, read-only refusals and type refusals; returns the descriptors."""
+    found = descriptors(session, node)
+    assert {name for name, d in found.items() if not d.read_only} == dynamic
+    for name, descriptor in found.items():
+        assert descriptor.description, f'{node} {name}: no description'
+        assert descriptor.type != ParameterType.PARAMETER_NOT_SET
+    current = get_values(session, node, sorted(found))
+    for name in sorted(set(found) - dynamic):
+        result = set_one(session, node, name, another_value(current[name]))
+        assert not result.successful, f'{node}: read-only {name} was accepted'
+        assert 'read-only' in result.reason, result.reason
+    for name in sorted(dynamic):
+        result = set_one(session, node, name, 'not a number')
+        assert not result.successful and 'type' in result.reason.lower(), (name, result.reason)
+        result = set_one(session, node, name, -1 if isinstance(current[name], int) else -1.0)
+        assert not result.successful, f'{node}: {name} = -1 was accepted'
+    # Nothing refused changed anything.
+    assert get_values(session, node, sorted(found)) == current
+    return found
+
+
+def stamp_seconds(msg) -> float:
+    return Time.from_msg(msg.header.stamp).nanoseconds / 1e9
+
+
+def wait_for(items, predicate, what, session, timeout=240.0):
+    deadline = time.monotonic() + timeout
+    while True:
+        found = [item for item in items if predicate(item)]
+        if found:
+            return found[0]
+        assert time.monotonic() < deadline, f'timed out waiting for {what}'
+        session.check_alive()
+        time.sleep(0.1)
+
+
+def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, config_dir):
+    """No follower: the leader's rounds end by its follower_timeout.
+
+    Started with a follower_timeout it would wait out for hours of simulated time, horizon and
+    round_limit from the task file (2, 20) and a 0.5 s settle; the values set at run time decide
+    the run: horizon 1 in every guidance, 30 s settling plus the 2 s timeout between the two
+    rounds, and the end at round 2.
+    """
+    task, _ = start_bridge(session, tmp_path, task_file, config_dir, start_paused=True)
+    session.start(leader_spec(task_file, follower_timeout=100000.0))
+    session.wait_for_nodes([LEADER], 60.0)
+    guidance = []
+    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, RELIABLE)
+    found = check_parameter_contract(session, LEADER, LEADER_DYNAMIC)
+    assert (found['horizon'].integer_range[0].from_value, found['horizon'].integer_range[0].to_value) == (0, 6)
+    assert not set_one(session, LEADER, 'horizon', 7).successful
+    assert task.horizon == 2 and task.round_limit > 2
+
+    results = set_parameters(session, LEADER, horizon=1, round_limit=2, settle_time=30.0)
+    assert all(r.successful for r in results), [r.reason for r in results]
+    assert get_values(session, LEADER, ['horizon', 'round_limit', 'settle_time']) == \
+        {'horizon': 1, 'round_limit': 2, 'settle_time': 30.0}
+    assert set_paused(session, False).success
+
+    first = wait_for(guidance, lambda g: g.round == 1 and not g.status, 'round 1 guidance', session)
+    assert first.horizon == 1 and first.stage_games > 0
+    # The round in progress waits for the follower until the new timeout.
+    assert set_one(session, LEADER, 'follower_timeout', 2.0).successful
+    second = wait_for(guidance, lambda g: g.round == 2 and not g.status, 'round 2 guidance', session)
+    assert second.horizon == 1
+    assert stamp_seconds(second) - stamp_seconds(first) >= 2.0 + 30.0
+    final = wait_for(guidance, lambda g: bool(g.status) or g.task_complete, 'the final guidance', session)
+    assert final.status == 'round limit 2 reached' and not final.task_complete
+    assert session.wait_for_exit('leader_planner', 60.0) == 0
+    log = (session.run_dir / 'logs' / 'leader_planner.log').read_text()
+    assert 'round 1: no follower report within 2 s' in log
+
+
+def test_follower_parameters_are_applied_or_refused(session, tmp_path, task_file, config_dir):
+    """The test is the leader: its guidance recommends no move, so the follower only observes.
+
+    Its report comes once the camera shows the table settle_time after the guidance: 30 s of
+    simulated time after it is set to 30 at run time (it started with 0.5).
+    """
+    task, case = start_bridge(session, tmp_path, task_file, config_dir, start_paused=False)
+    session.start(follower_spec(task_file))
+    session.wait_for_nodes([FOLLOWER], 60.0)
+    node = session.observer.node
+    reports = []
+    node.create_subscription(FollowerReport, '/sgcm/follower_report', reports.append, RELIABLE)
+    publisher = node.create_publisher(Guidance, '/sgcm/guidance', RELIABLE)
+    check_parameter_contract(session, FOLLOWER, FOLLOWER_DYNAMIC)
+    assert get_values(session, FOLLOWER, ['settle_time']) == {'settle_time': 0.5}
+    assert set_one(session, FOLLOWER, 'settle_time', 30.0).successful
+    wait_for_subscriber(publisher)
+
+    model = RearrangementModel(task)
+    clock = session.wait_for_message('/clock', 'rosgraph_msgs/msg/Clock', timeout=30)
+    msg = Guidance(round=1, horizon=task.horizon, strategy='sgcm',
+                   state=grid_state_msg(task, model.state_of(case)), leader_move=Move(empty=True),
+                   leader_move_succeeded=True, recommended_follower_move=Move(empty=True))
+    msg.header.stamp = clock.clock
+    publisher.publish(msg)
+    report = wait_for(reports, lambda r: r.round == 1, 'the round 1 report', session)
+    assert report.move.empty and report.succeeded
+    assert stamp_seconds(report) - stamp_seconds(msg) >= 30.0
