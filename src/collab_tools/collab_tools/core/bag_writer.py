@@ -1,9 +1,23 @@
 """rosbag2 (metadata version 9, MCAP) writer for raw CDR messages, without rclpy.
 
-Built on :class:`rosbags.rosbag2.Writer`: the MCAP file carries each type's
-ROS 2 message definition as a ``ros2msg`` schema, metadata.yaml records the
-offered QoS profiles in the version 9 format and the RIHS01 type hashes, so
-``ros2 bag info`` / ``ros2 bag play`` of a Jazzy install accept the bag.
+Built on :class:`rosbags.rosbag2.Writer`, writing what rosbag2 Jazzy's MCAP storage writes:
+the MCAP file carries each type's ROS 2 message definition as a ``ros2msg`` schema
+(:func:`~.bag_types.message_definition`, which also covers an action's generated messages)
+and, per channel, ``offered_qos_profiles`` (rosbag2's YAML list) and ``topic_type_hash``
+(the RIHS01 type hash); metadata.yaml and the MCAP's ``rosbag2`` metadata record have
+rosbag2's keys in its order, ``version: 9`` and ``ros_distro`` (``jazzy``, not rosbags'
+own ``rosbags``), so ``ros2 bag info`` / ``ros2 bag play`` of a Jazzy install accept the bag.
+
+Chunk compression follows rosbag2's MCAP storage presets (``storage_preset_profile``):
+
+* ``none``: uncompressed chunks of 768 KiB (mcap's default chunk size; rosbag2's default).
+* ``fastwrite``: rosbag2 writes no chunks; rosbags' writer always chunks, so this is ``none``.
+* ``zstd_fast``: zstd at mcap's "Fastest" level (-5) per 768 KiB chunk.
+* ``zstd_small``: zstd at mcap's "Slowest" level (19) per 4 MiB chunk: the smallest file,
+  and the most CPU, spent in the recorder's thread when a chunk closes.
+
+metadata.yaml says ``compression_mode: ''`` for all of them, as rosbag2 does: chunk
+compression is the storage's, readers decompress it transparently.
 """
 
 from __future__ import annotations
@@ -24,19 +38,24 @@ from rosbags.interfaces import (
     QosReliability,
     QosTime,
 )
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import StoragePlugin
 from rosbags.typesys.store import Typestore
 
-from .bag_types import normalize_type_name
+from .bag_storage import (BAG_VERSION, ROS_DISTRO, STORAGE_PRESETS, TYPE_HASH, Rosbag2Writer, StoragePreset,
+                          qos_profiles_text)
+from .bag_types import message_definition, normalize_type_name
 
 __all__ = [
     'BAG_VERSION',
     'DURATION_INFINITE_NS',
+    'ROS_DISTRO',
+    'STORAGE_PRESETS',
+    'TYPE_HASH',
     'BagWriter',
     'QosSpec',
+    'StoragePreset',
+    'qos_profiles_text',
 ]
-
-BAG_VERSION = 9
 
 #: rmw's RMW_DURATION_INFINITE in nanoseconds (INT64_MAX); rosbag2 >= v9 stores it as
 #: {sec: 9223372036, nsec: 854775807}.
@@ -202,22 +221,33 @@ class QosSpec:
 
 
 class BagWriter:
-    """Write raw CDR messages into a new rosbag2 bag (version 9).
+    """Write raw CDR messages into a new rosbag2 bag (version 9, as rosbag2 Jazzy writes it).
 
     The bag directory is created at construction; call :meth:`close` (or use
     ``with``) to write the index and metadata.yaml.  Thread safe.
+    ``storage_preset``: one of :data:`STORAGE_PRESETS` (MCAP only; see the module docstring).
+    ``ros_distro``: what metadata.yaml says recorded the bag.
     """
 
-    def __init__(self, path: str | Path, typestore: Typestore, *, storage: str = 'mcap') -> None:
+    def __init__(self, path: str | Path, typestore: Typestore, *, storage: str = 'mcap',
+                 storage_preset: str = 'none', ros_distro: str = ROS_DISTRO) -> None:
         self.path = Path(path)
         if storage not in _STORAGE:
             raise ValueError(f'BagWriter storage: {storage!r} is not one of {sorted(_STORAGE)}')
+        if storage_preset not in STORAGE_PRESETS:
+            raise ValueError(f'BagWriter storage_preset: {storage_preset!r} is not one of '
+                             f'{", ".join(STORAGE_PRESETS)}')
+        if storage != 'mcap' and storage_preset != 'none':
+            raise ValueError(f"BagWriter storage_preset: {storage_preset!r} is an MCAP preset (storage is {storage!r})")
+        if not isinstance(ros_distro, str) or not ros_distro:
+            raise ValueError(f'BagWriter ros_distro: expected a distribution name, got {ros_distro!r}')
         if self.path.exists():
             raise FileExistsError(f'bag path {self.path} already exists; BagWriter only creates new bags')
         self.storage = storage
+        self.storage_preset = storage_preset
         self.typestore = typestore
         self._lock = threading.Lock()
-        self._writer = Writer(self.path, version=BAG_VERSION, storage_plugin=_STORAGE[storage])
+        self._writer = Rosbag2Writer(self.path, _STORAGE[storage], STORAGE_PRESETS[storage_preset], ros_distro)
         self._writer.open()
         self._connections: dict[str, Connection] = {}
         self._types: dict[str, str] = {}
@@ -225,11 +255,15 @@ class BagWriter:
         self._closed = False
 
     # ---- topics ------------------------------------------------------
-    def add_topic(self, topic: str, type_name: str, offered_qos: Sequence[QosSpec] = ()) -> None:
+    def add_topic(self, topic: str, type_name: str, offered_qos: Sequence[QosSpec] = (),
+                  type_hash: str | None = None) -> None:
         """Register ``topic`` with ``type_name`` (idempotent for the same pair).
 
-        Raises ValueError for a second type on the same topic or a type the
-        typestore does not know.
+        ``type_hash``: the RIHS01 hash the publishers report (rclpy's ``topic_type_hash``);
+        it must equal the hash of the typestore's definition, which is otherwise used.
+        Raises ValueError for a second type on the same topic, a type the typestore does
+        not know, or a definition whose hash differs from the publishers' (the bag's schema
+        would not describe their data).
         """
         type_name = normalize_type_name(type_name)
         with self._lock:
@@ -246,16 +280,30 @@ class BagWriter:
                     f'topic {topic!r}: type {type_name!r} is not in the typestore '
                     '(build it with build_typestore([...]) including this type)'
                 )
+            own_hash = self.typestore.hash_rihs01(type_name)
+            if type_hash is not None and type_hash != own_hash:
+                if not isinstance(type_hash, str) or not TYPE_HASH.match(type_hash):
+                    raise ValueError(f'topic {topic!r}: type hash {type_hash!r} is not RIHS01_ and 64 hex digits')
+                raise ValueError(
+                    f'topic {topic!r}: the publishers\' {type_name} has type hash {type_hash}, the definition '
+                    f'found for it has {own_hash} (the installed definition differs from the publishers\')')
             qos = [q if isinstance(q, QosSpec) else QosSpec.from_profile(q) for q in offered_qos]
             self._connections[topic] = self._writer.add_connection(
                 topic,
                 type_name,
-                typestore=self.typestore,
+                msgdef=message_definition(self.typestore, type_name),
+                rihs01=own_hash,
                 serialization_format='cdr',
                 offered_qos_profiles=[q.to_rosbags() for q in qos],
             )
             self._types[topic] = type_name
             self._counts[topic] = 0
+
+    def set_custom_data(self, key: str, value: str) -> None:
+        """A ``custom_data`` entry of metadata.yaml (rosbag2's free key/value strings)."""
+        with self._lock:
+            self._check_open()
+            self._writer.set_custom_data(key, value)
 
     def has_topic(self, topic: str) -> bool:
         return topic in self._types
