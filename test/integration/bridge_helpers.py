@@ -53,16 +53,16 @@ def drive(session, publisher, linear, angular, seconds, chunk=0.25):
         elapsed += chunk
 
 
-def collect(ros_node, msg_type, topic, timeout=10.0, latched=False):
+def collect(ros_node, msg_type, topic, timeout=10.0, latched=False, reliable=False):
     """Subscribe and return the list the messages are appended to, once the bridge's publisher matched.
 
-    Best effort (the bridge's sensors and camera are sensor data) unless `latched`; a deep
-    history keeps everything a fast-stepped bridge sends.
+    Best effort (the bridge's sensors and camera are sensor data) unless `reliable` or
+    `latched`; a deep history keeps everything a fast-stepped bridge sends.
     """
     received = []
-    qos = (QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.TRANSIENT_LOCAL) if latched
-           else QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+    qos = QoSProfile(depth=100, reliability=(ReliabilityPolicy.RELIABLE if reliable or latched
+                                             else ReliabilityPolicy.BEST_EFFORT),
+                     durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE))
     subscription = ros_node.create_subscription(msg_type, topic, received.append, qos)
     deadline = time.monotonic() + timeout
     while subscription.get_publisher_count() == 0:
