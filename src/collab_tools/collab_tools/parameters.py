@@ -67,6 +67,14 @@ def _parameter_type(default: Any) -> int:
                     '(use a non-empty list, e.g. [""] for a string array)')
 
 
+_TYPE_WORDS = {
+    ParameterType.PARAMETER_BOOL: 'true or false', ParameterType.PARAMETER_INTEGER: 'an integer',
+    ParameterType.PARAMETER_DOUBLE: 'a number', ParameterType.PARAMETER_STRING: 'a string',
+    ParameterType.PARAMETER_BOOL_ARRAY: 'a list of true/false', ParameterType.PARAMETER_INTEGER_ARRAY:
+    'a list of integers', ParameterType.PARAMETER_DOUBLE_ARRAY: 'a list of numbers',
+    ParameterType.PARAMETER_STRING_ARRAY: 'a list of strings'}
+
+
 class _Spec:
     """One declared parameter: its constraints beyond the descriptor's range, and its applier."""
 
@@ -164,6 +172,7 @@ class NodeParameters:
                     from_value=float(low) if low is not None else -math.inf,
                     to_value=float(high) if high is not None else math.inf, step=0.0)]
         self._coerce_integer_override(name, type_)
+        self._check_override(spec)
         self._specs[name] = spec
         self._declaring = True
         try:
@@ -188,6 +197,22 @@ class NodeParameters:
         elif type_ == ParameterType.PARAMETER_DOUBLE_ARRAY and isinstance(value, (list, tuple)) \
                 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
             overrides[name] = Parameter(name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in value])
+
+    def _check_override(self, spec: _Spec) -> None:
+        # Our message (which names the range or choices) before rclpy's own type/range exceptions.
+        overrides = getattr(self._node, '_parameter_overrides', None)
+        if not isinstance(overrides, dict) or spec.name not in overrides:
+            return
+        parameter = overrides[spec.name]
+        if parameter.type_ != Parameter.Type(spec.type):
+            raise ConfigurationError(f'parameter {spec.name}: must be {_TYPE_WORDS[spec.type]} '
+                                     f'(got {echo(parameter.value)})')
+        value = parameter.value
+        if isinstance(value, (list, tuple)) and not isinstance(value, str):
+            value = list(value)
+        problem = spec.problem(value)
+        if problem is not None:
+            raise ConfigurationError(f'parameter {spec.name}: {problem}')
 
     def __getitem__(self, name: str) -> Any:
         value = self._node.get_parameter(name).value

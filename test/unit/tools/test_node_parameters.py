@@ -122,3 +122,12 @@ def test_use_sim_time_refused_for_a_clock_source(make_node):
     node = make_node()
     NodeParameters(node).refuse_use_sim_time('the bridge is the clock')
     assert not node.set_parameters([Parameter('use_sim_time', value=True)])[0].successful
+
+
+def test_start_values_get_our_message_before_rclpy_checks_them(make_node):
+    with pytest.raises(ConfigurationError, match=r'parameter p: must be in \[0, 1\] \(got 2.0\)'):
+        NodeParameters(make_node('-p', 'p:=2.0')).declare('p', 0.5, 'probability', low=0.0, high=1.0)
+    with pytest.raises(ConfigurationError, match=r"parameter p: must be a number \(got 'high'\)"):
+        NodeParameters(make_node('-p', 'p:=high')).declare('p', 0.5, 'probability', low=0.0, high=1.0)
+    with pytest.raises(ConfigurationError, match=r'parameter n: must be an integer \(got 1.5\)'):
+        NodeParameters(make_node('-p', 'n:=1.5')).declare('n', 1, 'count')
