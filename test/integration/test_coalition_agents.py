@@ -123,6 +123,9 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
         committed = re.findall(r'committed to coalition (\S+)|coalition (\S+) established', log)
         assert len(committed) <= 1, f'{robot} committed twice: {committed}'
     leader_log = agents[LEADER].log_path
+    # The presence check saw every teammate's agent (/<teammate>/schema_agent publishing
+    # /<teammate>/coalition and reading its inbox) before team_wait ran out.
+    assert 'starting anyway' not in leader_log.read_text()
     deadline = time.monotonic() + 10.0  # the log is written by another process
     while 'dropped malformed channel message' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed message was not reported by the leader'

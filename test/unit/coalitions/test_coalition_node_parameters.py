@@ -40,3 +40,13 @@ def test_retry_policy_from_the_parameters():
     policy = retry_policy(values(tail_timeout=12.0, peer_timeout=40.0, reorder_window=0.1))
     assert (policy.tail_timeout_s, policy.max_timeout_s, policy.peer_timeout_s, policy.message_lifetime_s,
             policy.reorder_window_s) == (12.0, 12.0, 40.0, 40.0, 0.1)
+
+
+def test_boxpush_agents_are_the_robots_of_their_namespaces(config_dir):
+    from collab_tools.orchestration.experiment import load_experiment
+    from coalition_agents.boxpush_experiment import agent_nodes
+    agents = agent_nodes(load_experiment(config_dir.parent / 'experiments' / 'coalition_boxpush.yaml'))
+    assert sorted(agents) == ['localizer_l1', 'localizer_l2', 'pusher_g1', 'pusher_r1', 'pusher_r2']
+    assert agents['pusher_g1']['exit_after'] == ['pusher_r2'] and agents['pusher_g1']['robot'] == 'pusher_g1'
+    with pytest.raises(ValueError, match=r'nodes\[0\] \(schema_agent\): needs namespace'):
+        agent_nodes({'nodes': [{'package': 'coalition_agents', 'executable': 'schema_agent', 'parameters': [{}]}]})
