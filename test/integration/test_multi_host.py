@@ -54,3 +54,45 @@ def test_local_only_discovery_across_hosts_fails_the_run(tmp_path):
     session = yaml.safe_load((tmp_path / 'run' / 'session.json').read_text())
     assert session['not_discovered'] == ['/scripted_driver']
     assert session['condition_met'] is False
+
+
+SGCM_SPLIT = '''
+import sys
+from pathlib import Path
+from sgcm.core.task_config import load_cases, load_task
+from sgcm.sim_runner import run_case
+config, experiment, run_dir = map(Path, sys.argv[1:4])
+task_file = config / 'sgcm' / 'task.yaml'
+task = load_task(task_file)
+case = next(c for c in load_cases(config / 'sgcm' / 'cases.yaml', task) if c.name == 'case_8')
+result = run_case(task, task_file, case, run_dir, config, strategy='sgcm', experiment=experiment)
+print(result.message)
+sys.exit(result.exit_code if result.condition_met or result.exit_code else 1)
+'''
+
+
+def test_sgcm_case_with_the_follower_on_another_host(tmp_path):
+    """Bridge and leader on host A, the follower arm's executor on host B: the case completes."""
+    experiment = yaml.safe_load((CONFIG / 'experiments' / 'sgcm_case.yaml').read_text())
+    experiment['discovery'] = {'range': 'SUBNET'}
+    experiment['record']['topics'] = ['/sgcm/guidance', '/sgcm/follower_report']
+    with two_hosts('sgcm') as hosts:
+        experiment['hosts'] = {'follower_host': {'netns': hosts.b}}
+        follower = next(n for n in experiment['nodes'] if n['executable'] == 'follower_executor')
+        follower['host'] = 'follower_host'
+        path = tmp_path / 'sgcm_split.yaml'
+        path.write_text(yaml.safe_dump(experiment, sort_keys=False))
+        result = run_in(hosts.a, [sys.executable, '-c', SGCM_SPLIT, str(CONFIG), str(path), str(tmp_path / 'run')],
+                        timeout=600, env=dict(os.environ))
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    session = yaml.safe_load((tmp_path / 'run' / 'session.json').read_text())
+    assert session['nodes']['follower_executor']['command'][:4] == ['ip', 'netns', 'exec', hosts.b]
+    from collab_tools.core.bag_analysis import read_messages
+    from sgcm.core.rearrangement import RearrangementModel
+    from sgcm.core.task_config import load_task
+    from sgcm.sim_runner import episode_from_bag
+    bag = tmp_path / 'run' / 'bags' / 'sgcm'
+    reports = [m for _, _, m in read_messages(bag, ['/sgcm/follower_report'])]
+    assert reports, 'no follower report crossed the link'
+    episode = episode_from_bag(RearrangementModel(load_task(CONFIG / 'sgcm' / 'task.yaml')), bag, 'sgcm')
+    assert episode.completed

@@ -30,7 +30,9 @@ REPORT = join('/', FOLLOWER_REPORT)
 
 def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, config_dir: Path,
              strategy: str = 'sgcm', follower: FollowerSettings | None = None, seed: int = 0,
-             execution_failures: bool = False, log=print) -> ExperimentResult:
+             execution_failures: bool = False, log=print, experiment: Path | None = None) -> ExperimentResult:
+    """experiment: another experiment file than config/experiments/sgcm_case.yaml (e.g. the same
+    nodes split over hosts, with its own discovery); its node names must be the same."""
     follower = follower or FollowerSettings('zero_trust' if strategy == 'greedy' else 'obedient')
     run_dir.mkdir(parents=True, exist_ok=True)
     scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
@@ -42,8 +44,8 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
                               'deviation_probability': follower.deviation_probability,
                               'deviation_rounds': list(follower.deviation_rounds) or [0], 'seed': seed + 1},
     }
-    return run_experiment(config_dir / 'experiments' / 'sgcm_case.yaml', config_dir, run_dir=run_dir,
-                          overrides=overrides, log=log)
+    return run_experiment(experiment or config_dir / 'experiments' / 'sgcm_case.yaml', config_dir,
+                          run_dir=run_dir, overrides=overrides, log=log)
 
 
 def episode_from_bag(model: RearrangementModel, bag: Path, method: str,
