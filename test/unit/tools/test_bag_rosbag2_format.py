@@ -118,8 +118,9 @@ def test_action_message_definition_is_rosbag2_style(action_prefix):
 
 
 def test_unknown_action_names_the_searched_prefixes(bridge_prefix):
-    with pytest.raises(UnknownMessageTypeError, match='PickAndPlace_FeedbackMessage'):
+    with pytest.raises(UnknownMessageTypeError, match='PickAndPlace_FeedbackMessage') as info:
         build_typestore([FEEDBACK], prefixes=[bridge_prefix])  # no .action file there
+    assert 'share/<pkg>/action/<Name>.action' in str(info.value) and str(bridge_prefix / 'share') in str(info.value)
 
 
 def test_action_bag_decodes_from_its_own_definitions(tmp_path, action_prefix):

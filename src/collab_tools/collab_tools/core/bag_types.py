@@ -47,9 +47,10 @@ class UnknownMessageTypeError(ValueError):
         self.needed_by = needed_by
         where = ', '.join(self.searched) if self.searched else '(no prefixes: AMENT_PREFIX_PATH empty?)'
         via = f' (needed by {needed_by})' if needed_by else ''
+        source = 'share/<pkg>/action/<Name>.action' if '/action/' in type_name else 'share/<pkg>/msg/<Name>.msg'
         super().__init__(
             f'unknown message type {type_name!r}{via}: not in the rosbags {base_store_name()} store '
-            f'and no share/<pkg>/msg/<Name>.msg for it under the prefixes {where}'
+            f'and no {source} for it under the prefixes {where}'
         )
 
 
