@@ -144,7 +144,7 @@ def test_bad_parameters_and_files_stop_the_agent_with_a_message(session, files, 
              (LEADER, {**files, 'task': 'teleport'}, "parameter task: unknown task 'teleport'"),
              (HELPER, files, "parameter team_task: required when task is 'none'"),
              (LEADER, {**files, 'task': 'navigation', 'loss_probability': 1.5},
-              'Parameter loss_probability out of range Min: 0.0, Max: 1.0'),
+              'parameter loss_probability: must be in [0, 1]'),
              (LEADER, {**files, 'robot': HELPER, 'task': 'navigation'},
               f"parameter robot: '{HELPER}' differs from the node's namespace /{LEADER}")]
     for index, (robot, params, expected) in enumerate(cases):

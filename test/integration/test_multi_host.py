@@ -86,7 +86,7 @@ def test_sgcm_case_with_the_follower_on_another_host(tmp_path):
                         timeout=600, env=dict(os.environ))
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     session = yaml.safe_load((tmp_path / 'run' / 'session.json').read_text())
-    assert session['nodes']['follower_executor']['command'][:4] == ['ip', 'netns', 'exec', hosts.b]
+    assert session['nodes']['follower_arm/follower_executor']['command'][:4] == ['ip', 'netns', 'exec', hosts.b]
     from collab_tools.core.bag_analysis import read_messages
     from sgcm.core.rearrangement import RearrangementModel
     from sgcm.core.task_config import load_task

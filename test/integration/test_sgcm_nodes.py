@@ -65,7 +65,7 @@ def test_leader_and_follower_complete_a_case_through_topics(session, tmp_path, t
     final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
                                      predicate=lambda m: m.task_complete or bool(m.status), timeout=240)
     assert final.task_complete, final.status
-    assert session.wait_for_exit('leader_planner', 30) == 0
+    assert session.wait_for_exit('leader_arm/leader_planner', 30) == 0
     # The rounds announced the leader's moves and a recommendation; the last estimate is the goal.
     rounds = [g for g in guidance if not g.task_complete]
     assert 1 <= len(rounds) <= 4
@@ -97,7 +97,7 @@ def test_follower_drops_malformed_guidance_and_keeps_working(session, tmp_path, 
     final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
                                      predicate=lambda m: m.task_complete or bool(m.status), timeout=240)
     assert final.task_complete, final.status
-    log = (session.run_dir / 'logs' / 'follower_executor.log').read_text()
+    log = (session.run_dir / 'logs' / 'follower_arm' / 'follower_executor.log').read_text()
     assert 'dropped malformed guidance for round 1000' in log
 
 
@@ -105,13 +105,14 @@ def test_follower_drops_malformed_guidance_and_keeps_working(session, tmp_path, 
     ('leader_planner', LEADER_NS, {}, 'parameter task_file: required'),
     ('leader_planner', LEADER_NS, {'strategy': 'telepathy'}, 'parameter strategy: must be one of sgcm, greedy'),
     ('leader_planner', LEADER_NS, {'solver': 'oracle'}, "parameter solver: must be one of fast, milp"),
-    # Out of a descriptor's range or of the wrong type: rclpy's own check, naming the parameter.
-    ('leader_planner', LEADER_NS, {'horizon': 7}, 'Parameter horizon out of range'),
-    ('leader_planner', LEADER_NS, {'settle_time': 'long'}, "parameter 'settle_time' to 'long'"),
+    # Out of a descriptor's range or of the wrong type: the message names the range or type.
+    ('leader_planner', LEADER_NS, {'horizon': 7}, 'parameter horizon: must be in [0, 6] (got 7)'),
+    ('leader_planner', LEADER_NS, {'settle_time': 'long'}, "parameter settle_time: must be a number (got 'long')"),
     ('leader_planner', None, {}, "must run in its robot's namespace"),
     ('leader_planner', LEADER_NS, {'robot': 'follower_arm'}, "parameter robot: 'follower_arm' differs"),
     ('follower_executor', FOLLOWER_NS, {'behaviour': 'sneaky'}, 'parameter behaviour: must be one of'),
-    ('follower_executor', FOLLOWER_NS, {'deviation_probability': 1.5}, 'Parameter deviation_probability out of range'),
+    ('follower_executor', FOLLOWER_NS, {'deviation_probability': 1.5},
+     'parameter deviation_probability: must be in [0, 1] (got 1.5)'),
     ('follower_executor', FOLLOWER_NS, {'deviation_rounds': [2, -1]}, 'deviation_rounds'),
     ('follower_executor', None, {}, "must run in its robot's namespace"),
 ])
@@ -121,7 +122,7 @@ def test_bad_parameters_stop_the_node_with_a_message(session, task_file, executa
         parameters = {'task_file': str(task_file), **parameters}
     process = session.start(NodeSpec('sgcm', executable, name=executable, namespace=namespace,
                                      parameters=[parameters]))
-    assert session.wait_for_exit(executable, timeout=60.0) == 2
+    assert session.wait_for_exit(process.name, timeout=60.0) == 2
     log = process.log_path.read_text()
     assert expected in log
     assert 'Traceback' not in log
@@ -132,7 +133,7 @@ def test_bad_task_file_names_the_field(session, tmp_path):
     bad.write_text('colours: {red: {goal: [5, 0], rgb: [1, 0, 0]}}\n')
     process = session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner', namespace=LEADER_NS,
                                      parameters=[{'task_file': str(bad)}]))
-    assert session.wait_for_exit('leader_planner', timeout=60.0) == 2
+    assert session.wait_for_exit('leader_arm/leader_planner', timeout=60.0) == 2
     assert 'colours.red.goal: cell [5, 0] is outside the 3x3 grid' in process.log_path.read_text()
 
 

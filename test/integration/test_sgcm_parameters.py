@@ -159,8 +159,8 @@ def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, 
     assert stamp_seconds(second) - stamp_seconds(first) >= 2.0 + 30.0
     final = wait_for(guidance, lambda g: bool(g.status) or g.task_complete, 'the final guidance', session)
     assert final.status == 'round limit 2 reached' and not final.task_complete
-    assert session.wait_for_exit('leader_planner', 60.0) == 0
-    log = (session.run_dir / 'logs' / 'leader_planner.log').read_text()
+    assert session.wait_for_exit('leader_arm/leader_planner', 60.0) == 0
+    log = (session.run_dir / 'logs' / 'leader_arm' / 'leader_planner.log').read_text()
     assert 'round 1: no follower report within 2 s' in log
 
 

@@ -38,9 +38,9 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
     scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
     (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
     overrides = {
-        'leader_planner': {'task_file': str(task_file), 'strategy': strategy, 'seed': seed,
+        'leader_arm/leader_planner': {'task_file': str(task_file), 'strategy': strategy, 'seed': seed,
                            'horizon': task.horizon},
-        'follower_executor': {'task_file': str(task_file), 'behaviour': follower.behaviour,
+        'follower_arm/follower_executor': {'task_file': str(task_file), 'behaviour': follower.behaviour,
                               'deviation_probability': follower.deviation_probability,
                               'deviation_rounds': list(follower.deviation_rounds) or [0], 'seed': seed + 1},
     }

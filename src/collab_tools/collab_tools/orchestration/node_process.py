@@ -35,7 +35,11 @@ class NodeSpec:
 
     @property
     def label(self) -> str:
-        return self.name or self.executable
+        """The session's name for the process (logs, stop, until: exit): its node name, under its
+        namespace when it has one (``burger1/role_player``), so per-robot nodes stay apart."""
+        node = self.name or self.executable
+        namespace = (self.namespace or '').strip('/')
+        return f'{namespace}/{node}' if namespace else node
 
 
 def find_executable(package: str, executable: str) -> Path:
@@ -58,7 +62,7 @@ def find_executable(package: str, executable: str) -> Path:
     return path
 
 
-def build_command(spec: NodeSpec, params_dir: Path) -> list[str]:
+def build_command(spec: NodeSpec, params_dir: Path, label: str | None = None) -> list[str]:
     command = [str(find_executable(spec.package, spec.executable)), *spec.arguments, '--ros-args']
     if spec.name:
         command += ['-r', f'__node:={spec.name}']
@@ -66,8 +70,8 @@ def build_command(spec: NodeSpec, params_dir: Path) -> list[str]:
         command += ['-r', f'__ns:={spec.namespace}']
     for index, params in enumerate(spec.parameters):
         if isinstance(params, dict):
-            params_dir.mkdir(parents=True, exist_ok=True)
-            path = params_dir / f'{spec.label}.{index}.yaml'
+            path = params_dir / f'{label or spec.label}.{index}.yaml'
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(yaml.safe_dump({'/**': {'ros__parameters': params}}, sort_keys=False))
         else:
             path = Path(params)
@@ -85,8 +89,10 @@ def build_command(spec: NodeSpec, params_dir: Path) -> list[str]:
 class NodeProcess:
     """A started node; stop() interrupts it like Ctrl-C, escalating if it hangs."""
 
-    def __init__(self, spec: NodeSpec, command: list[str], env: dict[str, str], log_path: Path):
+    def __init__(self, spec: NodeSpec, command: list[str], env: dict[str, str], log_path: Path,
+                 label: str | None = None):
         self.spec = spec
+        self.label = label or spec.label
         self.command = command
         self.log_path = log_path
         log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -102,7 +108,7 @@ class NodeProcess:
 
     @property
     def name(self) -> str:
-        return self.spec.label
+        return self.label
 
     def poll(self) -> int | None:
         return self.popen.poll()

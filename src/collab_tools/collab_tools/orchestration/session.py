@@ -183,24 +183,25 @@ class Session:
         return join(self.namespace, spec.namespace or '/')
 
     def start(self, spec: NodeSpec) -> NodeProcess:
-        if spec.label in self.nodes:
-            raise ValueError(f"a node named '{spec.label}' is already part of this session")
+        label = spec.label  # as the experiment names it, whatever the session's namespace
+        if label in self.nodes:
+            raise ValueError(f"a node named '{label}' is already part of this session")
         host = None
         if spec.host is not None:
             host = self.hosts.get(spec.host)
             if host is None:
-                raise NetworkConfigError(f"node {spec.label}: host '{spec.host}' is not defined "
+                raise NetworkConfigError(f"node {label}: host '{spec.host}' is not defined "
                                          f"(hosts: {', '.join(self.hosts) or 'none'})")
         if self.namespace != '/':
             spec = _in_namespace(spec, self.namespace)
-        command = build_command(spec, self.run_dir / 'params')
+        command = build_command(spec, self.run_dir / 'params', label)
         if host is not None:
             command = host.wrap(command)
         process = NodeProcess(spec, command, self.environment(spec.env),
-                              self.run_dir / 'logs' / f'{spec.label}.log')
-        self.nodes[spec.label] = process
+                              self.run_dir / 'logs' / f'{label}.log', label=label)
+        self.nodes[label] = process
         where = f' on {host.name}' if host is not None else ''
-        self._log(f'[session] started {spec.label}{where} (pid {process.popen.pid})')
+        self._log(f'[session] started {label}{where} (pid {process.popen.pid})')
         return process
 
     def wait_for_nodes(self, names: list[str], timeout: float) -> None:
