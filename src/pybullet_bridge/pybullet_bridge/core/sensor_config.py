@@ -7,7 +7,7 @@ Each robot lists the sensors it has, at most one of each kind, under its own nam
 (``fiducial``, ``laser``, ``gps``, ``bumper``), which is also the name the on/off
 service takes. Every sensor has ``active`` (default true: publishing from the start)
 and a ``rate`` in Hz of simulated time. The sensors sit at the robot's centre and look
-along its heading (frame ``<robot>/base_link``).
+along its heading (frames ``<robot>/<sensor>_link``, fixed to ``<robot>/base_link``: core/frames.py).
 
 Noise is Gaussian, drawn from one generator per sensor seeded from ``sensors.seed``
 (default: derived from the scenario seed and the robot's index), so a run repeats
