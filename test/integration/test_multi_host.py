@@ -5,6 +5,7 @@ host B through the experiment's `hosts`. With SUBNET discovery they meet; with t
 local-only discovery the nodes on B are never discovered, and the run must fail (exit 4),
 not end as a success.
 """
+import json
 import os
 import subprocess
 import sys
@@ -96,3 +97,46 @@ def test_sgcm_case_with_the_follower_on_another_host(tmp_path):
     assert reports, 'no follower report crossed the link'
     episode = episode_from_bag(RearrangementModel(load_task(CONFIG / 'sgcm' / 'task.yaml')), bag, 'sgcm')
     assert episode.completed
+
+
+COALITION_SPLIT = '''
+import json, sys
+from pathlib import Path
+from coalition_agents.sim_experiments import (AgentSetup, COLUMN_CONFIG, COLUMN_TYPES, column_placements,
+                                              column_result, load_column_config, read_coalition_bag, run_session)
+config, run_dir, host_b, discovery = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
+column = load_column_config(config / 'coalitions' / COLUMN_CONFIG)
+placements = column_placements(4, column.spacing_m)
+setup = AgentSetup(leaders=(placements[-1].robot,), search_time_s=3.0, link_preset=column.link_preset,
+                   timeout_s=120.0, host_processes=2, discovery={'range': discovery},
+                   hosts={'helpers_host': {'netns': host_b}}, process_hosts=(None, 'helpers_host'))
+result = run_session(run_dir, config, 'split_column', placements, COLUMN_TYPES, column.sensors, setup, log=print)
+summary = column_result(read_coalition_bag(result.bag), 4) if result.bag and result.bag.exists() else {}
+summary.pop('counts', None)
+print(json.dumps({'exit_code': result.exit_code, 'message': result.message, 'summary': summary}))
+'''
+
+
+def run_split_column(tmp_path, discovery: str) -> dict:
+    with two_hosts('coal') as hosts:
+        result = run_in(hosts.a, [sys.executable, '-c', COALITION_SPLIT, str(CONFIG), str(tmp_path / 'run'), hosts.b,
+                                  discovery], timeout=600, env=dict(os.environ))
+    assert result.stdout.strip(), result.stderr[-3000:]
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def test_coalition_agents_split_over_two_hosts_form_the_coalition(tmp_path):
+    """The leader's agent host on A (with the bridge), the helpers' agent host on B."""
+    outcome = run_split_column(tmp_path, 'SUBNET')
+    assert outcome['exit_code'] == 0, outcome
+    summary = outcome['summary']
+    assert summary['state'] == 'committed', summary
+    assert len(summary['members']) >= 2, summary  # the leader and at least one helper across the link
+    session = yaml.safe_load((tmp_path / 'run' / 'session.json').read_text())
+    assert session['nodes']['schema_agent_host_2']['command'][:3] == ['ip', 'netns', 'exec']
+
+
+def test_coalition_split_with_local_only_discovery_fails(tmp_path):
+    outcome = run_split_column(tmp_path, 'LOCALHOST')
+    assert outcome['exit_code'] == 4, outcome
+    assert 'never discovered' in outcome['message']

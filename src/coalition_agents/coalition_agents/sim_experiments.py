@@ -281,6 +281,12 @@ class AgentSetup:
     hosted: bool = True
     #: how many schema_agent_host processes share the agents (see :func:`host_groups`)
     host_processes: int = 1
+    #: where the runs' nodes are and how they meet: experiment fields ``discovery``, ``hosts``
+    #: (orchestration.network), and ``process_hosts``: the host of each agent process, in
+    #: host_groups order (None: the orchestrator's machine)
+    discovery: Mapping | None = None
+    hosts: Mapping | None = None
+    process_hosts: tuple[str | None, ...] = ()
 
 
 def host_groups(robots: Sequence[str], leaders: Sequence[str], processes: int) -> list[list[str]]:
@@ -343,8 +349,10 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
         elif setup.hosted:
             # The experiment waits for the first host (the leaders'); the others stop with it.
             for index, group in enumerate(host_groups(robots, setup.leaders, setup.host_processes)):
+                host = setup.process_hosts[index] if index < len(setup.process_hosts) else None
                 nodes.append({**node, 'use_sim_time': setup.use_sim_time,
                               **({} if index == 0 else {'name': f'{node["executable"]}_{index + 1}', 'required': False}),
+                              **({'host': host} if host else {}),
                               'parameters': list(node.get('parameters', [])) + [{'robots': group}]})
         else:  # one schema_agent process per robot, in its namespace (the parameter file is keyed by it)
             nodes.extend({'package': 'coalition_agents', 'executable': 'schema_agent', 'name': AGENT_NODE,
@@ -352,6 +360,9 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                           'required': robot in setup.leaders, 'parameters': [str(run_dir / 'agents.yaml')]}
                          for robot in robots)
     experiment['nodes'] = nodes
+    for field_ in ('discovery', 'hosts'):
+        if getattr(setup, field_) is not None:
+            experiment[field_] = dict(getattr(setup, field_))
     if not setup.hosted:
         experiment['until'] = {'exit': agent_label(setup.leaders[0])}
     generated = run_dir / 'experiment.yaml'
