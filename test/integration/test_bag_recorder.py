@@ -129,7 +129,7 @@ def test_relative_topics_resolve_in_its_namespace_and_discovery_period_applies(s
     for publisher, text in ((relative, 'relative'), (absolute, 'absolute'), (late, 'late')):
         publisher.publish(String(data=text))
     time.sleep(1.0)
-    assert session.stop('bag_recorder') == 0
+    assert session.stop('team/bag_recorder') == 0  # the session names it under its namespace
     assert {t.topic: t.count for t in summarize_bag(bag).topics} == {
         '/team/chatter': 1, '/absolute/chatter': 1, '/team/late': 1}
 
@@ -185,19 +185,12 @@ def test_records_an_actions_feedback_and_status_as_rosbag2_does(session, ros_nod
 
 
 def test_a_topic_it_cannot_record_fails_the_recorder(session, ros_node, tmp_path):
-    # Without the workspace's prefixes the recorder can import bridge_interfaces (PYTHONPATH) but
-    # finds no definition for its types: the type store fails for /test/bodies.
-    prefixes = [p for p in os.environ['AMENT_PREFIX_PATH'].split(os.pathsep)
-                if not os.path.isdir(os.path.join(p, 'share', 'bridge_interfaces'))]
-    bag = tmp_path / 'bag'
-    session.start(recorder(bag, topics=['/test/chatter', '/test/bodies', '/test/mixed'],
-                           env={'AMENT_PREFIX_PATH': os.pathsep.join(prefixes)}))
     # Two types on one topic: DDS allows it across participants only, so a second context publishes Int32.
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=session.domain_id)
     try:
         other = rclpy.create_node('other_type', context=context)
-        _check_failures(session, ros_node, other, bag)
+        _check_failures(session, ros_node, other, tmp_path / 'bag')
     finally:
         rclpy.shutdown(context=context)
 
@@ -207,6 +200,14 @@ def _check_failures(session, ros_node, other, bag):
     ros_node.create_publisher(BodyStates, '/test/bodies', 10)
     ros_node.create_publisher(String, '/test/mixed', 10)
     other.create_publisher(Int32, '/test/mixed', 10)
+    wait_until(lambda: len(dict(ros_node.get_topic_names_and_types()).get('/test/mixed', [])) == 2, 30.0,
+               'both types of /test/mixed in the graph')
+    # Without the workspace's prefixes the recorder can import bridge_interfaces (PYTHONPATH) but
+    # finds no definition for its types: the type store fails for /test/bodies.
+    prefixes = [p for p in os.environ['AMENT_PREFIX_PATH'].split(os.pathsep)
+                if not os.path.isdir(os.path.join(p, 'share', 'bridge_interfaces'))]
+    session.start(recorder(bag, topics=['/test/chatter', '/test/bodies', '/test/mixed'],
+                           env={'AMENT_PREFIX_PATH': os.pathsep.join(prefixes)}))
     wait_for_subscriber(chatter, timeout=20.0)
     chatter.publish(String(data='still recorded'))
     log = session.nodes['bag_recorder'].log_path
@@ -225,3 +226,11 @@ def _check_failures(session, ros_node, other, bag):
         '/test/chatter': 1}
     assert info['custom_data']['unrecorded_topics'].startswith('/test/bodies: ')
     assert '/test/mixed: it carries several types' in info['custom_data']['unrecorded_topics']
+
+
+def test_an_unknown_storage_preset_stops_the_recorder_with_a_message(session, tmp_path):
+    process = session.start(recorder(tmp_path / 'bag', storage_preset='zstd'))
+    assert session.wait_for_exit('bag_recorder', timeout=60.0) == 2
+    assert 'parameter storage_preset: must be one of none, fastwrite, zstd_fast, zstd_small' \
+        in process.log_path.read_text()
+    assert not (tmp_path / 'bag').exists()

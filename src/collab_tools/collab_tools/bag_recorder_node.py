@@ -116,10 +116,13 @@ class BagRecorder(Node):
 
     def _discover(self) -> None:
         for topic, type_names in self.get_topic_names_and_types():
-            if topic in self.subscriptions_by_topic or not self._wanted(topic):
+            if not self._wanted(topic) or topic in self.failures:
                 continue
             if len(type_names) != 1:
+                # Also once recorded: a second type that appears later is not in the bag.
                 self._fail(topic, f'it carries several types {type_names}')
+                continue
+            if topic in self.subscriptions_by_topic:
                 continue
             publishers = self.get_publishers_info_by_topic(topic)
             if not publishers:
@@ -128,7 +131,7 @@ class BagRecorder(Node):
 
     def _fail(self, topic: str, reason: str) -> None:
         self.failures[topic] = reason
-        self.subscriptions_by_topic[topic] = None  # do not retry every period
+        self.subscriptions_by_topic.setdefault(topic, None)  # do not retry every period
         self.get_logger().error(f'{topic}: CANNOT RECORD, {reason}; the recorder will exit with code '
                                 f'{EXIT_UNRECORDED} (the run fails)')
 
