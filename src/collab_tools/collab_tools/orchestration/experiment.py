@@ -2,7 +2,8 @@
 
     name: demo_mobile
     timeout: 120                 # wall-clock seconds for the completion condition
-    record: {bag: demo, topics: []}     # optional; empty topics = everything
+    record: {bag: demo, topics: []}     # optional; empty topics = everything;
+                                        # storage_preset: zstd_fast (rosbag2's MCAP presets)
     nodes:
       - {package: pybullet_bridge, executable: pybullet_bridge, use_sim_time: false,
          parameters: ['{config}/params/pybullet_bridge.yaml', {scenario: '{config}/scenarios/demo_mobile.yaml'}]}
@@ -205,6 +206,8 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             bag.parent.mkdir(parents=True, exist_ok=True)
             recorder = {'output': str(bag),
                         'topics': [session.resolve(t) for t in record.get('topics') or []] or ['']}
+            if 'storage_preset' in record:  # none | fastwrite | zstd_fast | zstd_small (rosbag2's presets)
+                recorder['storage_preset'] = str(record['storage_preset'])
             if session.namespace != '/' and not record.get('topics'):
                 # "Everything" of a namespaced session: its own topics, not a neighbour's.
                 recorder['exclude'] = ['/rosout', '/parameter_events', f'(?!{re.escape(session.namespace)}/).*']
