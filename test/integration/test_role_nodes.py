@@ -1,5 +1,8 @@
 """role_engine and four role_players form the diamond on the bridge through topics only.
 
+The engine runs as /role_engine, each player in its robot's namespace (/<robot>/role_player), so
+the four players have four unique node names.
+
 The nodes see the robots only through the top-view camera (colour tracking); the test
 checks against the bridge's ground truth: every robot ends at its assigned formation
 point, and no two robot discs ever overlap. A stopped role player makes the engine
@@ -16,11 +19,12 @@ import time
 import pytest
 import yaml
 from bridge_interfaces.msg import BodyStates
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from role_interfaces.msg import ProcessRole, RoleAssignment
 
 from collab_tools.orchestration.node_process import NodeSpec
+from collab_tools.qos import RELIABLE
 from bridge_helpers import bridge_spec
+from role_helpers import engine_spec, player_node, player_process, player_spec
 from pybullet_bridge.core.scenario import load_scenario
 from role_engine.core.formation_task import load_formation_task
 
@@ -63,12 +67,9 @@ def start_nodes(session, settings_file, robots=ROBOTS):
     task = load_formation_task(settings_file)
     session.start(bridge_spec(task.scenario, real_time_factor=REAL_TIME_FACTOR, start_paused=False,
                               ground_truth_rate=20.0))
-    session.start(NodeSpec('role_engine', 'role_engine', name='role_engine',
-                           parameters=[{'settings_file': str(settings_file)}]))
+    session.start(engine_spec(settings_file))
     for robot in robots:
-        session.start(NodeSpec('role_engine', 'role_player', name=f'role_player_{robot}',
-                               parameters=[{'settings_file': str(settings_file), 'robot': robot}],
-                               required=False))
+        session.start(player_spec(robot, settings_file))
     return task
 
 
@@ -111,10 +112,15 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file)
     assert assignment.status == 'assigned', assignment.message
     assert sorted(assignment.robots) == sorted(ROBOTS)
     assert len(set(assignment.role_ids)) == 4
+    # One node per robot, each named role_player in its robot's namespace: four unique names.
+    session.wait_for_nodes(['/role_engine'] + [player_node(robot) for robot in ROBOTS], timeout=30.0)
+    graph = session.observer.node.get_node_names_and_namespaces()
+    players = sorted(ns for name, ns in graph if name == 'role_player')
+    assert players == sorted(f'/{robot}' for robot in ROBOTS)
+    assert ('role_engine', '/') in graph
     # A malformed process role of this round (x and y of different lengths) is dropped by the
     # engine and the other players with a log line; nobody crashes and the formation completes.
-    channel = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    publisher = session.observer.node.create_publisher(ProcessRole, '/roles/channel', channel)
+    publisher = session.observer.node.create_publisher(ProcessRole, '/roles/channel', RELIABLE)
     deadline = time.monotonic() + 20.0                  # the engine, four players and our own watcher
     while publisher.get_subscription_count() < len(ROBOTS) + 2 and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -123,11 +129,10 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file)
                                   start_time=0.0, dt=0.5, radius=0.2, x=[0.0, 1.0, 2.0], y=[0.0], vx=[0.0],
                                   vy=[0.0]))
     assert_formation_completed(truth, arrived, assignment, timeout=100.0)
-    logs = session.run_dir / 'logs'
-    for node in ('role_engine', 'role_player_burger_1'):
-        log = (logs / f'{node}.log').read_text()
+    for process in (session.nodes['role_engine'], player_process(session, 'burger_1')):
+        log = process.log_path.read_text()
         assert "dropped malformed process role: process role of 'pioneer_1': x, y, vx, vy must have one " \
-               'equal length' in log, node
+               'equal length' in log, process.name
     print(f'diamond test took {time.monotonic() - began:.0f} s (wall)')
 
 
@@ -141,7 +146,7 @@ def test_role_engine_renegotiates_when_a_role_player_stops(session, settings_fil
     # Let the players start their roles, then silence one of them.
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
-    session.stop('role_player_burger_2')
+    session.stop(player_process(session, 'burger_2').name)
     second = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
                                       predicate=lambda m: m.round == first.round + 1, timeout=60)
     assert second.status == 'assigned', second.message
@@ -167,24 +172,28 @@ def bad_settings(tmp_path, config_dir, edit):
     return path
 
 
-@pytest.mark.parametrize('executable, parameters, edit, expected', [
-    ('role_engine', {}, None, 'parameter settings_file: required'),
-    ('role_engine', {'settings_file': 'missing.yaml'}, None, "parameter settings_file: settings file 'missing.yaml': "
-                                                               'does not exist'),
-    ('role_engine', {'exit_when_done': 'yes'}, {}, 'parameter exit_when_done: must be true or false'),
-    ('role_engine', {}, {'silence_timeout': -1.0}, 'silence_timeout'),
-    ('role_engine', {}, {'problem_detection.stuck_time': 0.0}, 'problem_detection.stuck_time'),
-    ('role_player', {'robot': 'pioneer_9'}, {}, 'parameter robot: must be one of pioneer_1, pioneer_2'),
-    ('role_player', {'robot': 'burger_1'}, {'robot_avoidance.sigma': 'stiff'}, 'robot_avoidance.sigma'),
-    ('role_player', {'robot': 'burger_1'}, {'trajectory.states': 1}, 'trajectory.states'),
+@pytest.mark.parametrize('executable, namespace, parameters, edit, expected', [
+    ('role_engine', None, {}, None, 'parameter settings_file: required'),
+    ('role_engine', None, {'settings_file': 'missing.yaml'}, None,
+     "parameter settings_file: settings file 'missing.yaml': does not exist"),
+    ('role_engine', None, {'exit_when_done': 'yes'}, {}, 'parameter exit_when_done: must be true or false'),
+    ('role_engine', None, {}, {'silence_timeout': -1.0}, 'silence_timeout'),
+    ('role_engine', None, {}, {'problem_detection.stuck_time': 0.0}, 'problem_detection.stuck_time'),
+    ('role_player', '/pioneer_9', {}, {}, 'parameter robot: must be one of pioneer_1, pioneer_2'),
+    ('role_player', None, {}, {}, "the node must run in its robot's namespace"),
+    ('role_player', '/burger_1', {'robot': 'burger_2'}, {}, "parameter robot: 'burger_2' differs from the node's "
+                                                             'namespace /burger_1'),
+    ('role_player', '/burger_1', {}, {'robot_avoidance.sigma': 'stiff'}, 'robot_avoidance.sigma'),
+    ('role_player', '/burger_1', {}, {'trajectory.states': 1}, 'trajectory.states'),
 ])
-def test_bad_parameters_stop_the_node_with_a_message(session, tmp_path, config_dir, executable, parameters, edit,
-                                                     expected):
+def test_bad_parameters_stop_the_node_with_a_message(session, tmp_path, config_dir, executable, namespace, parameters,
+                                                     edit, expected):
     parameters = dict(parameters)
     if edit is not None:
         parameters['settings_file'] = str(bad_settings(tmp_path, config_dir, edit))
-    process = session.start(NodeSpec('role_engine', executable, name=executable, parameters=[parameters]))
-    assert session.wait_for_exit(executable, timeout=60.0) == 2
+    spec = NodeSpec('role_engine', executable, name=executable, namespace=namespace, parameters=[parameters])
+    process = session.start(spec)
+    assert session.wait_for_exit(spec.label, timeout=60.0) == 2
     log = process.log_path.read_text()
     assert expected in log
     assert 'Traceback' not in log

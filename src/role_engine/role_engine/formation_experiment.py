@@ -20,8 +20,8 @@ of radii), and per robot of the last round its role, goal, ``arrival_time`` (s f
 role start to the player's ``arrived`` message), ``final_error`` (ground-truth distance to the
 goal at the end) and the tracking error (ground truth vs the commanded role at the same time).
 
-``--stop-player <robot>``: the same run, but once that robot's player has published
-``stop_after_versions`` re-optimised roles, its node is stopped (SIGINT); the role engine must
+``--stop-player <robot>``: the same run, but once that robot's player (``/<robot>/role_player``) has
+published ``stop_after_versions`` re-optimised roles, its node is stopped (SIGINT); the role engine must
 notice the silence, renegotiate with the others, and they must complete the formation. This
 needs a step "stop a node once a message matches" that the experiment YAML cannot express, so
 that variant drives a :class:`~collab_tools.orchestration.session.Session` itself from the same
@@ -240,18 +240,25 @@ def run_formation(config_dir: str | Path, run_dir: str | Path, log: Log = print,
     return results
 
 
+def player_label(data: dict, robot: str, where: object = 'experiment') -> str:
+    """The session label of ``robot``'s role player in a loaded experiment: the role_player node that
+    runs in the robot's namespace (``/<robot>/role_player``); ValueError when there is none."""
+    from collab_tools.orchestration.experiment import parse_node
+
+    for index, node in enumerate(data.get('nodes') or []):
+        spec = parse_node(node, f'nodes[{index}]')
+        if spec.executable == 'role_player' and (spec.namespace or '').strip('/') == robot:
+            return spec.label
+    raise ValueError(f'{where}: no role_player node runs in the namespace /{robot}')
+
+
 def _run_with_stop(experiment: Path, config_dir: Path, run_dir: Path, robot: str, versions: int, log: Log):
     """The experiment with two more after_start steps: once ``robot``'s player has published
     ``versions`` re-optimised roles, stop that player; the run then waits for the engine as usual."""
-    from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
+    from collab_tools.orchestration.experiment import load_experiment, run_experiment
 
     data = load_experiment(experiment)
-    player = next((node.get('name') or parse_node(node, 'node').label for node in data['nodes']
-                   if node.get('executable') == 'role_player'
-                   and any(isinstance(p, dict) and p.get('robot') == robot for p in node.get('parameters', []))),
-                  None)
-    if player is None:
-        raise ValueError(f'{experiment}: no role_player node drives {robot}')
+    player = player_label(data, robot, experiment)
     data['after_start'] = list(data.get('after_start') or []) + [
         {'wait_for_message': {'topic': CHANNEL, 'type': 'role_interfaces/msg/ProcessRole',
                               'timeout': float(data.get('timeout', 300)),

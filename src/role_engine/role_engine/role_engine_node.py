@@ -1,17 +1,19 @@
-"""role_engine: the central computer of the role engine (Algorithm 1).
+"""role_engine: the central computer of the role engine (Algorithm 1), a team-level node.
 
-Waits for a camera frame in which every robot of the scenario is found by colour
-tracking, builds the environment from that image (robots are not obstacles), negotiates,
-evaluates by GP inference and assigns the formation's roles by GRA (core.central), then
-publishes the assignment on /roles/assignment (latched) and the initial process roles on
-/roles/channel. It watches the channel and the camera (core.problems.ProblemWatch): a
-robot that is silent (no process role for ``silence_timeout`` s), stuck or far off its role
-is excluded and the remaining robots renegotiate from their tracked positions (the
-excluded robot is then an obstacle as the camera sees it). When that is not negotiable
-(fewer usable robots than ``min_robots``, or no feasible assignment) the assignment says
-``aborted`` and why, and the node exits if ``exit_when_done``. A first negotiation that
-finds no workable assignment says ``infeasible``. A malformed process role on the channel
-is dropped with a log line.
+Runs in the team namespace (``/role_engine`` by default; ``-r __ns:=/sim1`` moves it and its topics).
+Waits for a camera frame (``<team>/<camera>``, sensor-data QoS) in which every robot of the
+scenario is found by colour tracking, builds the environment from that image (robots are not
+obstacles), negotiates, evaluates by GP inference and assigns the formation's roles by GRA
+(core.central), then publishes the assignment on ``<team>/roles/assignment`` (latched) and the
+initial process roles on ``<team>/roles/channel`` (reliable). It watches the channel and the camera
+(core.problems.ProblemWatch): a robot that is silent (no process role for ``silence_timeout`` s),
+stuck or far off its role is excluded and the remaining robots renegotiate from their tracked
+positions (the excluded robot is then an obstacle as the camera sees it). When that is not
+negotiable (fewer usable robots than ``min_robots``, or no feasible assignment) the assignment
+says ``aborted`` and why, and the node exits if ``exit_when_done``. A first negotiation that finds
+no workable assignment says ``infeasible``. A malformed process role on the channel is dropped
+with a log line. Its tuning (role_parameters.ENGINE_TUNING) are dynamic ROS parameters whose
+defaults are the shared settings file's values.
 """
 from __future__ import annotations
 
@@ -19,12 +21,14 @@ import sys
 import time
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from role_interfaces.msg import ProcessRole, RoleAssignment
 
 from pybullet_bridge.core.scenario import load_scenario
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools import qos
+from collab_tools.names import TeamNode
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
 from collab_tools.top_camera import TopCamera
 
 from .core.central import plan_roles
@@ -35,10 +39,9 @@ from .core.negotiation import Agent
 from .core.problems import ProblemWatch
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
+from .core.tuning import EngineTuning
 from .role_messages import process_role_msg, shared_role
-
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-CHANNEL = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+from .role_parameters import ENGINE_TUNING, declare_tuning
 
 
 def load_settings(path: str):
@@ -53,25 +56,33 @@ def load_settings(path: str):
         raise ConfigurationError(f'parameter settings_file: {error}') from None
 
 
+def declare_settings(params: NodeParameters):
+    """The read-only parameters both role nodes share: (task, scenario, team, camera namespace)."""
+    path = params.declare('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml): the '
+                          'scenario, the formation and the team-wide defaults of the tuning parameters',
+                          required=True)
+    camera = params.declare('camera', 'top_camera', "the top camera's namespace, relative to the team namespace",
+                            check=lambda v: None if v.strip('/') else 'must be a non-empty namespace')
+    return (*load_settings(path), camera)
+
+
 class RoleEngine(Node):
     def __init__(self):
         super().__init__('role_engine')
-        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
-        declare('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml)')
-        declare('camera', 'top_camera', 'camera namespace')
-        declare('exit_when_done', False, 'exit once every robot has reached its formation point')
-        p = lambda name: self.get_parameter(name).value  # noqa: E731
-        self.task, scenario, self.team = load_settings(p('settings_file'))
-        if not isinstance(p('camera'), str) or not p('camera'):
-            raise ConfigurationError(f"parameter camera: must be a non-empty namespace (got {p('camera')!r})")
+        params = NodeParameters(self)
+        self.names = TeamNode(self, params)
+        self.task, scenario, self.team, camera = declare_settings(params)
+        self.exit_when_done = params.declare('exit_when_done', False,
+                                             'exit once the formation is complete or the task is aborted')
+        self.tuning = declare_tuning(params, EngineTuning.from_task(self.task), ENGINE_TUNING, self._retune)
         self.members = {m.name: m for m in self.team}
         self.frame = GridFrame.covering(scenario.world.bounds, self.task.grid_resolution)
         self.targets = [TrackedTarget(m.name, m.color, m.robot_type.radius, m.height) for m in self.team]
-        self.camera = TopCamera(self, p('camera'))
-        self.assignment_pub = self.create_publisher(RoleAssignment, '/roles/assignment', LATCHED)
-        self.channel_pub = self.create_publisher(ProcessRole, '/roles/channel', CHANNEL)
-        self.create_subscription(ProcessRole, '/roles/channel', self._on_role, CHANNEL)
-        self.watch = ProblemWatch(self.task.problem_detection)
+        self.camera = TopCamera(self, self.names.team(camera))
+        self.assignment_pub = self.create_publisher(RoleAssignment, self.names.team('roles/assignment'), qos.LATCHED)
+        self.channel_pub = self.create_publisher(ProcessRole, self.names.team('roles/channel'), qos.RELIABLE)
+        self.create_subscription(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        self.watch = ProblemWatch(self.tuning.problems)
         self.round = 0
         self.active: list[str] = []          # robots of the current round
         self.excluded: list[str] = []
@@ -79,13 +90,16 @@ class RoleEngine(Node):
         self.observations = None
         self.phase = 'negotiate'
         self.pending_why = 'initial negotiation'
-        self.exit_when_done = p('exit_when_done')
-        if not isinstance(self.exit_when_done, bool):
-            raise ConfigurationError(f'parameter exit_when_done: must be true or false (got {self.exit_when_done!r})')
         self.finished = Future()
         self.create_timer(0.25, self._tick)
         self.get_logger().info(f"{len(self.team)} robots ({', '.join(self.members)}), formation "
                                f"{self.task.formation['type']}")
+
+    def _retune(self, name: str, value) -> None:
+        """A tuning parameter was set: the next check or negotiation uses it (RoleEngineError refuses)."""
+        self.tuning = self.tuning.with_values({name: value})
+        self.watch.settings = self.tuning.problems
+        self.get_logger().info(f'{name} set to {value}')
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -155,9 +169,9 @@ class RoleEngine(Node):
             self.get_logger().warn(f'cannot use the camera frame: {error}', throttle_duration_sec=5.0)
             return
         robots = [m for m in self.team if m.name not in self.excluded]
-        if self.round > 0 and len(robots) < self.task.min_robots:
+        if self.round > 0 and len(robots) < self.tuning.min_robots:
             self._abort(f'{why}: {len(robots)} usable robot(s) left, the formation needs min_robots = '
-                        f'{self.task.min_robots}')
+                        f'{self.tuning.min_robots}')
             return
         missing = [m.name for m in robots if not self.observations[m.name].found]
         if missing:
@@ -174,7 +188,7 @@ class RoleEngine(Node):
         try:
             if agents:
                 plan = plan_roles(agents, roles, environment, total_time=self.task.total_time,
-                                  num_intervals=self.task.states - 1, lam=self.task.qualification_lambda,
+                                  num_intervals=self.task.states - 1, lam=self.tuning.qualification_lambda,
                                   epsilon=self.task.gp.get('epsilon', 0.1), evaluate=TypedGPEvaluator(self.task))
         except RoleEngineError as error:
             self.get_logger().error(f'round {self.round}: {error}')
@@ -187,7 +201,7 @@ class RoleEngine(Node):
             self.phase = 'done'
             self.get_logger().error(f'round {self.round}: {msg.status}: {msg.message}')
         else:
-            start_time = self._now() + self.task.start_delay
+            start_time = self._now() + self.tuning.start_delay
             destinations = {r.name: r.destination for r in roles}
             msg.status, msg.message = 'assigned', why
             for name, (role_id, trajectory) in plan.process_roles.items():

@@ -1,15 +1,21 @@
-"""role_player: one robot's role player (Algorithm 4).
+"""role_player: one robot's role player (Algorithm 4), run in its robot's namespace.
 
-Hears the assignment (/roles/assignment) and the others' process roles (/roles/channel),
-tracks its own robot by colour on the top-view camera, and drives it along its process
-role with the core controller (/<robot>/cmd_vel, at the camera rate). Every
-``replan_period`` it re-optimises the rest of its role by GP inference with the others'
-roles as time-indexed moving obstacles (core.role_playing: warm start from the remaining
-part of the current role, detours when a head-on conflict remains) and publishes it on the
-channel; that message is also its heartbeat, so it is published
-every period even when the role is kept. At the destination it stops and says so
-(``arrived``). A robot left out of the assignment, or of an aborted one, stops. A
-malformed process role on the channel is dropped with a log line.
+``ros2 run role_engine role_player --ros-args -r __ns:=/pioneer_1 -p settings_file:=...`` is the
+node ``/pioneer_1/role_player``: its robot is the last component of its namespace (``names.RobotNode``).
+It hears the assignment (``<team>/roles/assignment``, latched) and the others' process roles
+(``<team>/roles/channel``), tracks its own robot by colour on the top-view camera
+(``<team>/<camera>``, sensor-data QoS), and drives it along its process role with the core
+controller (``cmd_vel`` in its namespace, at the camera rate). Every ``replan_period`` it
+re-optimises the rest of its role by GP inference with the others' roles as time-indexed moving
+obstacles (core.role_playing: warm start from the remaining part of the current role, detours when
+a head-on conflict remains) and publishes it on the channel; that message is also its heartbeat,
+so it is published every period even when the role is kept. At the destination it stops and says
+so (``arrived``). A robot left out of the assignment, or of an aborted one, stops. A malformed
+process role on the channel is dropped with a log line.
+
+Its tuning (role_parameters.PLAYER_TUNING: re-plan period, controller gains and velocity caps,
+arrival tolerance, conflict horizon, GP and avoidance settings) are dynamic ROS parameters whose
+defaults are the shared settings file's values.
 """
 from __future__ import annotations
 
@@ -18,10 +24,12 @@ import sys
 
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from role_interfaces.msg import ProcessRole, RoleAssignment
 
-from collab_tools.node_support import ConfigurationError, declare as declare_parameter, run
+from collab_tools import qos
+from collab_tools.names import RobotNode
+from collab_tools.node_support import ConfigurationError, run
+from collab_tools.parameters import NodeParameters
 from collab_tools.top_camera import TopCamera
 
 from .core.conflict import SharedRole
@@ -31,27 +39,29 @@ from .core.formation_task import replan_process_role
 from .core.grid import GridFrame
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
-from .role_engine_node import CHANNEL, LATCHED, load_settings
-from .role_messages import process_role_msg, shared_role, trajectory_of
+from .core.tuning import PlayerTuning
+from .role_engine_node import declare_settings
+from .role_messages import process_role_msg, shared_role
+from .role_parameters import PLAYER_TUNING, declare_tuning
 
 
 class RolePlayer(Node):
     def __init__(self):
         super().__init__('role_player')
-        declare = lambda *spec: declare_parameter(self, *spec)  # noqa: E731
-        declare('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml)')
-        declare('robot', '', 'the robot this player drives (a mobile_robots name of the scenario)')
-        declare('camera', 'top_camera', 'camera namespace')
-        p = lambda name: self.get_parameter(name).value  # noqa: E731
-        self.task, scenario, team = load_settings(p('settings_file'))
+        params = NodeParameters(self)
+        self.names = RobotNode(self, params)
+        self.task, scenario, team, camera = declare_settings(params)
         self.frame = GridFrame.covering(scenario.world.bounds, self.task.grid_resolution)
         members = {m.name: m for m in team}
-        self.robot = p('robot')
-        if not isinstance(p('camera'), str) or not p('camera'):
-            raise ConfigurationError(f"parameter camera: must be a non-empty namespace (got {p('camera')!r})")
-        if not isinstance(self.robot, str) or self.robot not in members:
-            raise ConfigurationError(f"parameter robot: must be one of {', '.join(members)} (got {self.robot!r})")
+        self.robot = self.names.robot
+        if self.robot not in members:
+            raise ConfigurationError(f"parameter robot: must be one of {', '.join(members)} (got {self.robot!r}, "
+                                     f'the last component of the namespace {self.get_namespace()})')
         self.member = members[self.robot]
+        limits = self.member.robot_type
+        self.tuning = declare_tuning(params, PlayerTuning.from_task(self.task, limits), PLAYER_TUNING, self._retune,
+                                     high={'max_linear_velocity': limits.max_linear_velocity,
+                                           'max_angular_velocity': limits.max_angular_velocity})
         self.robot_env = None                # Env_tau: from the scenario's static obstacles, built lazily
         self.target = TrackedTarget(self.robot, self.member.color, self.member.robot_type.radius, self.member.height)
         self.observation = None
@@ -63,14 +73,24 @@ class RolePlayer(Node):
         self.follower: TrajectoryFollower | None = None
         self.arrived = False
         self.others: dict[str, SharedRole] = {}
-        self.cmd_pub = self.create_publisher(Twist, f'/{self.robot}/cmd_vel', 10)
-        self.channel_pub = self.create_publisher(ProcessRole, '/roles/channel', CHANNEL)
-        self.create_subscription(RoleAssignment, '/roles/assignment', self._on_assignment, LATCHED)
-        self.create_subscription(ProcessRole, '/roles/channel', self._on_role, CHANNEL)
-        self.camera = TopCamera(self, p('camera'), on_frame=self._on_frame)
-        self.create_timer(self.task.replan_period, self._replan)
+        self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT)
+        self.channel_pub = self.create_publisher(ProcessRole, self.names.team('roles/channel'), qos.RELIABLE)
+        self.create_subscription(RoleAssignment, self.names.team('roles/assignment'), self._on_assignment,
+                                 qos.LATCHED)
+        self.create_subscription(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        self.camera = TopCamera(self, self.names.team(camera), on_frame=self._on_frame)
+        self.replan_timer = self.create_timer(self.tuning.replan_period, self._replan)
         self.exit_when_done = False
         self.get_logger().info(f'{self.robot} ({self.member.robot_type.name}) ready')
+
+    def _retune(self, name: str, value) -> None:
+        """A tuning parameter was set: the next period, re-plan and command use it (RoleEngineError refuses)."""
+        self.tuning = self.tuning.with_values({name: value})
+        if name == 'replan_period':
+            self.replan_timer.timer_period_ns = int(round(self.tuning.replan_period * 1e9))
+        if self.role is not None:
+            self.follower = self.tuning.follower(self.role.trajectory, self.role.total_time)
+        self.get_logger().info(f'{name} set to {value}')
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -110,8 +130,7 @@ class RolePlayer(Node):
     def _adopt(self, role: SharedRole, version: int) -> None:
         self.role = role
         self.version = version
-        self.follower = TrajectoryFollower(role.trajectory, role.total_time, self.member.robot_type,
-                                           position_tolerance=0.5 * self.task.arrival_tolerance)
+        self.follower = self.tuning.follower(role.trajectory, role.total_time)
 
     def _publish_role(self) -> None:
         msg = process_role_msg(self.robot, self.role_id, self.round, max(self.version, 1), self.role.start_time,
@@ -143,7 +162,7 @@ class RolePlayer(Node):
             self.cmd_pub.publish(Twist())
             return
         if t >= self.role.total_time and math.dist(observation.position, self.role.trajectory[-1, :2]) \
-                <= self.task.arrival_tolerance:
+                <= self.tuning.arrival_tolerance:
             self.arrived = True
             self.cmd_pub.publish(Twist())
             self.get_logger().info(f'arrived at {self.role_id}')
@@ -163,10 +182,10 @@ class RolePlayer(Node):
             if self.robot_env is None:
                 self.robot_env = self._static_environment().for_robot(self.member.robot_type)
             try:
-                result = replan_process_role(self.task.gp_config(self.member.robot_type), self.robot_env, self.role,
+                tuning = self.tuning
+                result = replan_process_role(tuning.gp_config(), self.robot_env, self.role,
                                              list(self.others.values()), now, self.observation.position,
-                                             horizon=self.task.conflict_horizon,
-                                             avoidance=self.task.robot_avoidance)
+                                             horizon=tuning.conflict_horizon, avoidance=tuning.avoidance)
             except RoleEngineError as error:
                 self.get_logger().warn(f're-optimisation failed, keeping the role: {error}',
                                        throttle_duration_sec=5.0)

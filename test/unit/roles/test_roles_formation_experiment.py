@@ -169,3 +169,15 @@ def test_table_and_plots_are_written_from_the_bag(tmp_path, typestore):
     plot_commanded_vs_tracked(log, results, tmp_path / 'tracked.png')
     plot_commands(log, tmp_path / 'cmd.png')
     assert (tmp_path / 'tracked.png').stat().st_size > 10_000 and (tmp_path / 'cmd.png').stat().st_size > 10_000
+
+
+def test_the_stopped_player_is_found_by_its_robot_namespace():
+    from collab_tools.orchestration.experiment import load_experiment, parse_node
+    from role_engine.formation_experiment import player_label
+
+    data = load_experiment(WS / 'config' / 'experiments' / 'roles_formation.yaml')
+    players = [parse_node(n, 'node') for n in data['nodes'] if n['executable'] == 'role_player']
+    assert sorted(p.namespace for p in players) == ['/burger_1', '/burger_2', '/pioneer_1', '/pioneer_2']
+    assert player_label(data, 'burger_2') == next(p.label for p in players if p.namespace == '/burger_2')
+    with pytest.raises(ValueError, match='no role_player node runs in the namespace /burger_9'):
+        player_label(data, 'burger_9')

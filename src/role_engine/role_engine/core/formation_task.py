@@ -19,6 +19,8 @@ Settings file (YAML, e.g. config/roles/formation_demo.yaml; unknown keys are err
     arrival_tolerance: 0.08        # m from the destination at which a robot has arrived, > 0
     robot_avoidance: {clearance: 0.1, sigma: 0.02, interpolation: 3, detour_scales: [1.0, 2.0]}
                                    # the others as moving obstacles (core/role_playing.py), optional
+    controller: {k_x: 1.5, k_y: 8.0, k_theta: 3.0, k_approach: 1.0, k_turn: 2.0}
+                                   # the role players' tracking gains (core/controller.py), optional
     problem_detection: {stuck_distance: 0.05, stuck_time: 8.0, off_role_distance: 0.6, off_role_grace: 4.0}
                                    # Algorithm 1's "detect a problem" (core/problems.py), optional
     min_robots: 2                  # fewer usable robots than this: the engine aborts, >= 1
@@ -38,6 +40,7 @@ import numpy as np
 
 from pybullet_bridge.core.fields import Fields, fail, join_path, read_yaml_file
 
+from .controller import TrackingGains
 from .environment import RobotEnvironment, RobotType
 from .errors import RoleEngineError
 from .formations import parse_formation
@@ -49,7 +52,8 @@ from .role_playing import AvoidanceSettings, Replan, replan_process_role  # noqa
 
 TOP_LEVEL_KEYS = ('scenario', 'formation', 'trajectory', 'grid_resolution', 'inflation_margin', 'speed_fraction',
                   'gp', 'qualification_lambda', 'start_delay', 'silence_timeout', 'replan_period',
-                  'conflict_horizon', 'arrival_tolerance', 'robot_avoidance', 'problem_detection', 'min_robots')
+                  'conflict_horizon', 'arrival_tolerance', 'robot_avoidance', 'problem_detection', 'min_robots',
+                  'controller')
 #: GP fields the task sets itself, per robot type.
 GP_FIELDS_SET_HERE = ('robot_radius', 'max_speed')
 
@@ -76,6 +80,7 @@ class FormationTask:
     robot_avoidance: AvoidanceSettings = AvoidanceSettings()
     problem_detection: ProblemSettings | None = None
     min_robots: int = 2
+    controller: TrackingGains = TrackingGains()
 
     def roles(self, count: int) -> list[Role]:
         """The formation's ``count`` destinations as roles ``<type>_<k>``."""
@@ -122,13 +127,21 @@ def load_formation_task(path: str | Path) -> FormationTask:
         arrival_tolerance=fields.number('arrival_tolerance', 0.08, gt=0.0),
         robot_avoidance=AvoidanceSettings.from_mapping(fields.raw('robot_avoidance', {}),
                                                        fields.path_of('robot_avoidance')),
-        min_robots=fields.integer('min_robots', 2, ge=1))
+        min_robots=fields.integer('min_robots', 2, ge=1),
+        controller=_tracking_gains(fields.raw('controller', {}), fields.path_of('controller')))
     task = replace(task, problem_detection=ProblemSettings.from_mapping(
         fields.raw('problem_detection', {}), fields.path_of('problem_detection'),
         silence_timeout=task.silence_timeout))
     task.roles(1)                                      # validates the formation fields once
     task.gp_config(RobotType('check', 0.1))            # and the GP fields
     return task
+
+
+def _tracking_gains(data, path: str) -> TrackingGains:
+    fields = Fields(data if data is not None else {}, path, allowed=tuple(TrackingGains.__dataclass_fields__))
+    defaults = TrackingGains()
+    return TrackingGains(**{name: fields.number(name, getattr(defaults, name), gt=0.0)
+                            for name in TrackingGains.__dataclass_fields__})
 
 
 @dataclass(frozen=True)
