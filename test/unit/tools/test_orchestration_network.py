@@ -81,3 +81,16 @@ def test_session_started_discovery_server_commands():
     assert Discovery.parse({'server': '10.0.0.1:11811'}).server_commands() == []
     with pytest.raises(NetworkConfigError, match='start_server'):
         Discovery.parse({'start_server': True})
+
+
+def test_parameter_file_content_is_written_as_it_is(tmp_path):
+    from collab_tools.orchestration.node_process import build_command, is_parameter_file_content
+    import yaml
+    per_node = {'/**': {'ros__parameters': {'a': 1}}, '/**/robot_2/schema_agent': {'ros__parameters': {'b': 2}}}
+    assert is_parameter_file_content(per_node)
+    assert not is_parameter_file_content({'a': 1}) and not is_parameter_file_content({})
+    spec = NodeSpec('collab_tools', 'scripted_driver', parameters=[per_node, {'c': 3}])
+    command = build_command(spec, tmp_path)
+    files = [command[i + 1] for i, arg in enumerate(command) if arg == '--params-file']
+    assert yaml.safe_load(open(files[0])) == per_node
+    assert yaml.safe_load(open(files[1])) == {'/**': {'ros__parameters': {'c': 3}}}

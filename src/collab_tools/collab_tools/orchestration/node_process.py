@@ -14,8 +14,9 @@ import yaml
 class NodeSpec:
     """What to start: `ros2 run <package> <executable>` with ROS arguments.
 
-    parameters: dicts (written to a params file in the run dir) and/or paths to
-    ROS parameter YAML files, applied in order (later wins).
+    parameters: dicts (written to a params file in the run dir, for every node name: ``/**``),
+    whole parameter-file mappings (``{'/**/robot_2/schema_agent': {'ros__parameters': {...}}}``,
+    written as they are) and/or paths to ROS parameter YAML files, applied in order (later wins).
     """
 
     package: str
@@ -62,6 +63,13 @@ def find_executable(package: str, executable: str) -> Path:
     return path
 
 
+def is_parameter_file_content(params: dict) -> bool:
+    """A mapping written as a whole ROS parameter file: node-name keys (``/**``, ``/**/robot_2/schema_agent``)
+    each holding ``ros__parameters`` -- so per-node values travel in the experiment, not in a side file."""
+    return bool(params) and all(isinstance(key, str) and key.startswith('/') and isinstance(value, dict)
+                                and set(value) == {'ros__parameters'} for key, value in params.items())
+
+
 def build_command(spec: NodeSpec, params_dir: Path, label: str | None = None) -> list[str]:
     command = [str(find_executable(spec.package, spec.executable)), *spec.arguments, '--ros-args']
     if spec.name:
@@ -72,7 +80,8 @@ def build_command(spec: NodeSpec, params_dir: Path, label: str | None = None) ->
         if isinstance(params, dict):
             path = params_dir / f'{label or spec.label}.{index}.yaml'
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(yaml.safe_dump({'/**': {'ros__parameters': params}}, sort_keys=False))
+            content = params if is_parameter_file_content(params) else {'/**': {'ros__parameters': params}}
+            path.write_text(yaml.safe_dump(content, sort_keys=False))
         else:
             path = Path(params)
             if not path.is_file():
