@@ -7,6 +7,12 @@ newest of each and turns them into numpy images and a
 :class:`~collab_tools.core.camera_geometry.TopViewGeometry`. A frame is complete when the
 RGB image, intrinsics and pose are there and, with labels, the label image carries the
 same stamp as the RGB one.
+
+``transport='compressed'`` reads image_transport's compressed topics instead
+(``image_raw/compressed`` JPEG, ``labels/compressed`` lossless PNG; see
+:mod:`collab_tools.core.image_codec`): the same arrays (labels identical, RGB within JPEG
+error) for a fraction of the bytes, for a node on another host. A message is decoded only
+when its frame is used.
 """
 from __future__ import annotations
 
@@ -17,18 +23,27 @@ from bridge_interfaces.msg import LabelLegend
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from rclpy.time import Time
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from .core.camera_geometry import TopViewGeometry
+from .core.image_codec import decode_labels, decode_rgb
 from .images import image_array
 from .qos import LATCHED, SENSOR_IN
 
 
+#: image_transport transports TopCamera reads ('raw': sensor_msgs/Image; 'compressed': CompressedImage).
+TRANSPORTS = ('raw', 'compressed')
+
+
 class TopCamera:
     def __init__(self, node: Node, camera: str = '/top_camera', *, with_labels: bool = False,
-                 on_frame: Callable[[], None] | None = None):
-        self._rgb: Image | None = None
-        self._labels: Image | None = None
+                 on_frame: Callable[[], None] | None = None, transport: str = 'raw'):
+        if transport not in TRANSPORTS:
+            raise ValueError(f"image transport '{transport}' (expected one of {', '.join(TRANSPORTS)})")
+        self.transport = transport
+        self._rgb: Image | CompressedImage | None = None
+        self._labels: Image | CompressedImage | None = None
+        self._decoded: dict[str, tuple[object, np.ndarray]] = {}   # 'rgb'/'labels' -> (message, array)
         self._info: CameraInfo | None = None
         self._pose: PoseStamped | None = None
         self._geometry: TopViewGeometry | None = None
@@ -38,18 +53,20 @@ class TopCamera:
         self.legend: dict[int, tuple[str, str]] = {}
         # camera: the camera's namespace, absolute (a team-shared sensor: names.RobotNode.team('top_camera'))
         ns = '/' + camera.strip('/')
-        node.create_subscription(Image, f'{ns}/image_raw', self._on_rgb, SENSOR_IN)
+        # image_transport's topic names: <base topic>/<transport>, raw = the base topic itself.
+        kind, suffix = (Image, '') if transport == 'raw' else (CompressedImage, '/compressed')
+        node.create_subscription(kind, f'{ns}/image_raw{suffix}', self._on_rgb, SENSOR_IN)
         node.create_subscription(CameraInfo, f'{ns}/camera_info', self._on_info, SENSOR_IN)
         node.create_subscription(PoseStamped, f'{ns}/pose', self._on_pose, LATCHED)
         if with_labels:
-            node.create_subscription(Image, f'{ns}/labels', self._on_labels, SENSOR_IN)
+            node.create_subscription(kind, f'{ns}/labels{suffix}', self._on_labels, SENSOR_IN)
             node.create_subscription(LabelLegend, f'{ns}/label_legend', self._on_legend, LATCHED)
 
-    def _on_rgb(self, msg: Image) -> None:
+    def _on_rgb(self, msg: Image | CompressedImage) -> None:
         self._rgb = msg
         self._notify()
 
-    def _on_labels(self, msg: Image) -> None:
+    def _on_labels(self, msg: Image | CompressedImage) -> None:
         self._labels = msg
         self._notify()
 
@@ -91,7 +108,7 @@ class TopCamera:
         stamp = self.frame_time()
         if stamp is None:
             raise ValueError('no complete camera frame yet')
-        return stamp, image_array(self._rgb)
+        return stamp, self._array('rgb', self._rgb)
 
     def labels(self) -> np.ndarray:
         """Label image of the newest complete frame (with_labels only); ValueError if it cannot be used."""
@@ -99,4 +116,15 @@ class TopCamera:
             raise ValueError('this TopCamera was created without labels')
         if self.frame_time() is None:
             raise ValueError('no complete camera frame yet')
-        return image_array(self._labels)
+        return self._array('labels', self._labels)
+
+    def _array(self, which: str, msg: Image | CompressedImage) -> np.ndarray:
+        if isinstance(msg, Image):
+            return image_array(msg)
+        cached = self._decoded.get(which)
+        if cached is not None and cached[0] is msg:
+            return cached[1].copy()
+        decode = decode_rgb if which == 'rgb' else decode_labels
+        array = decode(msg.format, msg.data)
+        self._decoded[which] = (msg, array)
+        return array.copy()

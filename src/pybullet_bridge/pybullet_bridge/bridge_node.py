@@ -1,7 +1,8 @@
 """pybullet_bridge node: runs the scene and exposes it on ROS.
 
 Publishes /clock (simulated time), /tf and /tf_static (tf_adapter.py), the top-view camera
-(image, labels, info, pose, label legend) and ground-truth body states; drives robots from
+(camera_adapter.py: image, labels, info, pose, label legend, and image_transport's compressed
+image and labels for whoever subscribes) and ground-truth body states; drives robots from
 their command topics through entity adapters; serves reset, pause and step. All simulation
 lives in pybullet_bridge.core; this node only converts and paces.
 
@@ -11,31 +12,29 @@ Names: everything but /clock, /tf and /tf_static is relative to the node's names
 camera info and robot sensors are sensor data (best effort), the label legend, camera pose
 and ground truth latched, cmd_vel accepted from best-effort publishers.
 
-Parameters: real_time_factor, publish_camera, ground_truth_rate and status_rate change at
-run time (``ros2 param set``); the others are read-only. The bridge is the clock source, so
-``use_sim_time:=true`` is refused at start (exit 2).
+Parameters: real_time_factor, publish_camera, compressed_rate, jpeg_quality, ground_truth_rate
+and status_rate change at run time (``ros2 param set``); the others are read-only. The bridge
+is the clock source, so ``use_sim_time:=true`` is refused at start (exit 2).
 """
 
 import sys
 import time
 
-import numpy as np
-from bridge_interfaces.msg import BodyLabel, BodyState, BodyStates, LabelLegend, SimulationStatus
+from bridge_interfaces.msg import BodyState, BodyStates, SimulationStatus
 from bridge_interfaces.srv import ResetScenario, StepSimulation
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import SetBool
 
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
-from collab_tools.qos import LATCHED, RELIABLE, SENSOR_OUT
+from collab_tools.qos import LATCHED, RELIABLE
 
 from .core.errors import ScenarioError
-from .core.frames import optical_frame, robot_transforms, static_transforms
+from .camera_adapter import CameraPublisher
+from .core.frames import robot_transforms, static_transforms
 from .core.scenario import load_scenario
 from .core.scene import Scene
 from .entity_adapters import create_adapters
@@ -67,7 +66,6 @@ class PybulletBridge(Node):
         self.control_period = self.params['control_period']
         self.ground_truth_rate = self.params['ground_truth_rate']
         self.status_rate = self.params['status_rate']
-        self.publish_camera = self.params['publish_camera']
 
         try:
             scenario = load_scenario(self.scenario_path)
@@ -84,12 +82,7 @@ class PybulletBridge(Node):
         self.bodies_pub = self.create_publisher(BodyStates, 'ground_truth/bodies', LATCHED)
         self.status_pub = self.create_publisher(SimulationStatus, '~/status', RELIABLE)
         self.tf = TfPublisher(self)
-        camera_ns = scenario.camera.frame_id
-        self.image_pub = self.create_publisher(Image, f'{camera_ns}/image_raw', SENSOR_OUT)
-        self.labels_pub = self.create_publisher(Image, f'{camera_ns}/labels', SENSOR_OUT)
-        self.info_pub = self.create_publisher(CameraInfo, f'{camera_ns}/camera_info', SENSOR_OUT)
-        self.legend_pub = self.create_publisher(LabelLegend, f'{camera_ns}/label_legend', LATCHED)
-        self.camera_pose_pub = self.create_publisher(PoseStamped, f'{camera_ns}/pose', LATCHED)
+        self.camera = CameraPublisher(self, self.params, scenario.camera.frame_id)
 
         self.create_service(ResetScenario, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
@@ -120,8 +113,6 @@ class PybulletBridge(Node):
                 on_change=self._set_ground_truth_rate)
         declare('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
                 low=0.0, high=MAX_RATE, low_open=True, on_change=self._set_status_rate)
-        declare('publish_camera', True, 'render and publish the top-view camera',
-                on_change=self._set_publish_camera)
         declare('start_paused', False, 'start paused; advance with ~/step or ~/pause false')
 
     def _set_real_time_factor(self, value: float) -> None:
@@ -139,12 +130,6 @@ class PybulletBridge(Node):
     def _set_status_rate(self, value: float) -> None:
         self.status_rate = value
         self._start_status_timer()
-
-    def _set_publish_camera(self, value: bool) -> None:
-        if value and not self.publish_camera:
-            self.next_camera_time = self.scene.sim_time  # a frame on the next tick
-        self.publish_camera = value
-        self.get_logger().info('camera ' + ('on' if value else 'off'))
 
     def _start_pacing_timer(self) -> None:
         """(Re)start the tick timer for the current real-time factor; pacing re-anchors."""
@@ -168,8 +153,6 @@ class PybulletBridge(Node):
             adapter.destroy()
         self.adapters = create_adapters(self, self.scene.entities, self.reject)
         self.steps_per_tick = max(1, round(self.control_period / self.scene.physics_dt))
-        self.camera_period = 1.0 / self.scene.scenario.camera.rate
-        self.next_camera_time = 0.0
         self.next_ground_truth_time = 0.0
         self._pace_reference = None
         self._status_reference = (time.monotonic(), self.scene.sim_time)
@@ -178,24 +161,11 @@ class PybulletBridge(Node):
 
     def _publish_latched(self) -> None:
         scenario = self.scene.scenario
-        legend = LabelLegend()
-        legend.header.stamp = to_time_msg(self.scene.sim_time)
-        legend.header.frame_id = optical_frame(scenario.camera.frame_id)
-        legend.entries = [BodyLabel(label=label, name=name, kind=kind)
-                          for label, name, kind in self.scene.label_legend()]
-        self.legend_pub.publish(legend)
-
+        stamp = to_time_msg(self.scene.sim_time)
+        self.camera.on_scene_loaded(self.scene, stamp)
         position, quaternion = self.scene.camera.optical_pose()
-        pose = PoseStamped()
-        pose.header.stamp = legend.header.stamp
-        pose.header.frame_id = scenario.world.frame_id
-        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = map(float, position)
-        (pose.pose.orientation.x, pose.pose.orientation.y,
-         pose.pose.orientation.z, pose.pose.orientation.w) = map(float, quaternion)
-        self.camera_pose_pub.publish(pose)
         self.tf.publish_static(static_transforms(scenario.world.frame_id, self.scene.entities,
-                                                 scenario.camera.frame_id, position, quaternion),
-                               legend.header.stamp)
+                                                 scenario.camera.frame_id, position, quaternion), stamp)
 
     def reject(self, source: str, reason: str) -> None:
         """Log and count a malformed input that was dropped."""
@@ -244,9 +214,7 @@ class PybulletBridge(Node):
         if sim_time + epsilon >= self.next_ground_truth_time:
             self.next_ground_truth_time = sim_time + 1.0 / self.ground_truth_rate
             self._publish_ground_truth(stamp)
-        if self.publish_camera and sim_time + epsilon >= self.next_camera_time:
-            self.next_camera_time = sim_time + self.camera_period
-            self._publish_camera(stamp)
+        self.camera.publish_due(self.scene, stamp)
 
     def _publish_ground_truth(self, stamp: Time) -> None:
         msg = BodyStates()
@@ -264,36 +232,6 @@ class PybulletBridge(Node):
             msg.bodies.append(state)
         self.bodies_pub.publish(msg)
         self.tf.publish(robot_transforms(msg.header.frame_id, bodies), stamp)
-
-    def _publish_camera(self, stamp: Time) -> None:
-        frame = self.scene.render()
-        camera = self.scene.camera
-        frame_id = optical_frame(self.scene.scenario.camera.frame_id)
-        self.image_pub.publish(self._image_msg(frame.rgb, 'rgb8', stamp, frame_id))
-        self.labels_pub.publish(self._image_msg(frame.labels, '16UC1', stamp, frame_id))
-        info = CameraInfo()
-        info.header.stamp = stamp
-        info.header.frame_id = frame_id
-        info.width, info.height = camera.width, camera.height
-        info.distortion_model = 'plumb_bob'
-        info.d = [0.0] * 5
-        info.k = [float(v) for v in camera.intrinsics().flatten()]
-        info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        info.p = [float(v) for v in camera.projection().flatten()]
-        self.info_pub.publish(info)
-
-    @staticmethod
-    def _image_msg(array: np.ndarray, encoding: str, stamp: Time, frame_id: str) -> Image:
-        array = np.ascontiguousarray(array)
-        msg = Image()
-        msg.header.stamp = stamp
-        msg.header.frame_id = frame_id
-        msg.height, msg.width = int(array.shape[0]), int(array.shape[1])
-        msg.encoding = encoding
-        msg.is_bigendian = int(sys.byteorder == 'big')
-        msg.step = int(array.strides[0])
-        msg.data = array.tobytes()
-        return msg
 
     def _publish_status(self) -> None:
         now = time.monotonic()

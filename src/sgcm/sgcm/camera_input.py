@@ -9,7 +9,8 @@ from __future__ import annotations
 from rclpy.node import Node
 from rclpy.time import Time
 
-from collab_tools.top_camera import TopCamera
+from collab_tools.parameters import NodeParameters
+from collab_tools.top_camera import TRANSPORTS, TopCamera
 
 from .core.perception import StateEstimate, estimate_state
 from .core.task_config import TaskConfig
@@ -22,11 +23,18 @@ def check_camera(value: str) -> str | None:
     return None if value.strip('/') else "must name the camera's namespace (got '')"
 
 
+def declare_image_transport(params: NodeParameters) -> str:
+    """The read-only ``image_transport`` parameter of both SGCM nodes (the subscriptions are made once)."""
+    return params.declare('image_transport', 'raw', "the camera's image_transport: raw (image_raw, labels) "
+                          'or compressed (image_raw/compressed JPEG, labels/compressed PNG: for a node on '
+                          'another host)', choices=TRANSPORTS)
+
+
 class CameraInput:
-    def __init__(self, node: Node, task: TaskConfig, camera: str = '/top_camera'):
+    def __init__(self, node: Node, task: TaskConfig, camera: str = '/top_camera', transport: str = 'raw'):
         # camera: absolute namespace (a team-shared sensor); TopCamera subscribes with sensor-data QoS
         self.task = task
-        self.camera = TopCamera(node, camera, with_labels=True)
+        self.camera = TopCamera(node, camera, with_labels=True, transport=transport)
 
     @property
     def cube_labels(self) -> dict[int, str]:

@@ -26,7 +26,7 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .camera_input import CameraInput, check_camera
+from .camera_input import CameraInput, check_camera, declare_image_transport
 from .core.follower_behaviour import BEHAVIOURS, Follower, FollowerSettings
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.task_config import TaskConfigError, load_task
@@ -49,6 +49,7 @@ class FollowerExecutor(Node):
         seed = params.declare('seed', 0, 'seed of the random behaviour', low=0)
         camera = params.declare('camera', 'top_camera', 'camera namespace, under the team namespace',
                                 check=check_camera)
+        transport = declare_image_transport(params)
         settle_time = params.declare('settle_time', 0.5, 'sim seconds after the guidance before observing '
                                      'the table (applied to the round in progress)', low=0.0,
                                      on_change=self._set_settle_time)
@@ -63,7 +64,7 @@ class FollowerExecutor(Node):
         self.settings = settings = FollowerSettings(behaviour, probability, rounds)
         self.follower = Follower(self.model, settings, seed=seed)
         self._set_settle_time(settle_time)
-        self.camera = CameraInput(self, self.task, self.names.team(camera))
+        self.camera = CameraInput(self, self.task, self.names.team(camera), transport)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.report_pub = self.create_publisher(FollowerReport, self.names.team(FOLLOWER_REPORT), RELIABLE)
         self.create_subscription(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)

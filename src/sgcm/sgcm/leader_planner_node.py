@@ -28,7 +28,7 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .camera_input import CameraInput, check_camera
+from .camera_input import CameraInput, check_camera, declare_image_transport
 from .core.follower_behaviour import greedy_action
 from .core.fse import FSEPlanner
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
@@ -55,6 +55,7 @@ class LeaderPlanner(Node):
                                        choices=STRATEGIES)
         camera = params.declare('camera', 'top_camera', 'camera namespace, under the team namespace',
                                 check=check_camera)
+        transport = declare_image_transport(params)
         follower_timeout = params.declare(
             'follower_timeout', 60.0, 'sim seconds to wait for the follower to end a round '
             '(applied to the wait in progress)', low=0.0, on_change=self._set_follower_timeout)
@@ -78,7 +79,7 @@ class LeaderPlanner(Node):
         self._set_round_limit(round_limit)
         self.rng = np.random.default_rng(seed)
 
-        self.camera = CameraInput(self, self.task, self.names.team(camera))
+        self.camera = CameraInput(self, self.task, self.names.team(camera), transport)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
         self.create_subscription(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)

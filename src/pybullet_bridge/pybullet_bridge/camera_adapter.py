@@ -1,0 +1,158 @@
+"""The bridge's top-view camera on ROS, raw and -- on demand -- compressed as image_transport does it.
+
+Topics under ``<camera>/`` (relative to the bridge's namespace):
+
+* ``image_raw`` (rgb8), ``labels`` (16UC1), ``camera_info``: sensor data (best effort), every
+  rendered frame (the scenario's ``camera.rate``) while ``publish_camera`` is true.
+* ``image_raw/compressed`` (JPEG, ``rgb8; jpeg compressed bgr8``) and ``labels/compressed``
+  (lossless PNG, ``16UC1; png compressed ``): sensor_msgs/CompressedImage with
+  compressed_image_transport's topic names and format strings, so RViz, Foxglove and
+  rqt_image_view (transport "compressed") show them. Encoded only for a topic somebody
+  subscribes to, and at most ``compressed_rate`` frames per simulated second (0 = every
+  frame); a frame passed by the throttle goes out on both, so image and labels share stamps.
+* ``pose`` and ``label_legend``: latched.
+
+Parameters (declared here, all dynamic): ``publish_camera``, ``compressed_rate``, ``jpeg_quality``.
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+from bridge_interfaces.msg import BodyLabel, LabelLegend
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+
+from collab_tools.core.image_codec import LABELS_PNG_FORMAT, RGB8_JPEG_FORMAT, encode_labels_png, encode_rgb_jpeg
+from collab_tools.parameters import NodeParameters
+from collab_tools.qos import LATCHED, SENSOR_OUT
+
+from .core.frames import optical_frame
+from .core.scene import Scene
+from .core.throttle import EPSILON, RateThrottle
+
+#: compressed_image_transport's default jpeg_quality.
+DEFAULT_JPEG_QUALITY = 95
+MAX_COMPRESSED_RATE = 1000.0
+
+
+def image_msg(array: np.ndarray, encoding: str, stamp: Time, frame_id: str) -> Image:
+    array = np.ascontiguousarray(array)
+    msg = Image()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = int(array.shape[0]), int(array.shape[1])
+    msg.encoding = encoding
+    msg.is_bigendian = int(sys.byteorder == 'big')
+    msg.step = int(array.strides[0])
+    msg.data = array.tobytes()
+    return msg
+
+
+def compressed_msg(data: bytes, format_text: str, stamp: Time, frame_id: str) -> CompressedImage:
+    msg = CompressedImage(format=format_text, data=data)
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    return msg
+
+
+class CameraPublisher:
+    """Publishes the scene's camera: frames when due, latched pose and legend on (re)load."""
+
+    def __init__(self, node: Node, params: NodeParameters, camera_ns: str):
+        self._node = node
+        self.publish_camera = params.declare('publish_camera', True, 'render and publish the top-view camera',
+                                             on_change=self._set_publish_camera)
+        rate = params.declare('compressed_rate', 0.0, 'Hz of simulated time for <camera>/image_raw/compressed '
+                              'and <camera>/labels/compressed (at most the camera rate); 0 = every frame',
+                              low=0.0, high=MAX_COMPRESSED_RATE, on_change=self._set_compressed_rate)
+        self.jpeg_quality = params.declare('jpeg_quality', DEFAULT_JPEG_QUALITY, 'JPEG quality of '
+                                           '<camera>/image_raw/compressed (100 = best, largest)', low=1, high=100,
+                                           on_change=self._set_jpeg_quality)
+        self.throttle = RateThrottle(rate)
+        self.image_pub = node.create_publisher(Image, f'{camera_ns}/image_raw', SENSOR_OUT)
+        self.labels_pub = node.create_publisher(Image, f'{camera_ns}/labels', SENSOR_OUT)
+        self.info_pub = node.create_publisher(CameraInfo, f'{camera_ns}/camera_info', SENSOR_OUT)
+        # image_transport's names: <base topic>/<transport>.
+        self.image_compressed_pub = node.create_publisher(CompressedImage, f'{camera_ns}/image_raw/compressed',
+                                                          SENSOR_OUT)
+        self.labels_compressed_pub = node.create_publisher(CompressedImage, f'{camera_ns}/labels/compressed',
+                                                           SENSOR_OUT)
+        self.legend_pub = node.create_publisher(LabelLegend, f'{camera_ns}/label_legend', LATCHED)
+        self.pose_pub = node.create_publisher(PoseStamped, f'{camera_ns}/pose', LATCHED)
+        self.period = 1.0
+        self.next_time = 0.0
+
+    # --- parameters ---------------------------------------------------------------------
+    def _set_publish_camera(self, value: bool) -> None:
+        if value and not self.publish_camera:
+            self.next_time = -1.0  # a frame on the next tick
+        self.publish_camera = value
+        self._node.get_logger().info('camera ' + ('on' if value else 'off'))
+
+    def _set_compressed_rate(self, value: float) -> None:
+        self.throttle.set_rate(value)
+
+    def _set_jpeg_quality(self, value: int) -> None:
+        self.jpeg_quality = value
+
+    # --- publishing ---------------------------------------------------------------------
+    def on_scene_loaded(self, scene: Scene, stamp: Time) -> None:
+        """A (new) scene: restart the schedule at its time 0 and publish the latched topics."""
+        self.period = 1.0 / scene.scenario.camera.rate
+        self.next_time = 0.0
+        self.throttle.reset()
+        legend = LabelLegend()
+        legend.header.stamp = stamp
+        legend.header.frame_id = optical_frame(scene.scenario.camera.frame_id)
+        legend.entries = [BodyLabel(label=label, name=name, kind=kind) for label, name, kind in scene.label_legend()]
+        self.legend_pub.publish(legend)
+
+        position, quaternion = scene.camera.optical_pose()
+        pose = PoseStamped()
+        pose.header.stamp = stamp
+        pose.header.frame_id = scene.scenario.world.frame_id
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = map(float, position)
+        (pose.pose.orientation.x, pose.pose.orientation.y,
+         pose.pose.orientation.z, pose.pose.orientation.w) = map(float, quaternion)
+        self.pose_pub.publish(pose)
+
+    def publish_due(self, scene: Scene, stamp: Time) -> None:
+        """Render and publish a frame if one is due at the scene's time."""
+        sim_time = scene.sim_time
+        if not self.publish_camera or sim_time + EPSILON < self.next_time:
+            return
+        self.next_time = sim_time + self.period
+        frame = scene.render()
+        camera = scene.camera
+        frame_id = optical_frame(scene.scenario.camera.frame_id)
+        self.image_pub.publish(image_msg(frame.rgb, 'rgb8', stamp, frame_id))
+        self.labels_pub.publish(image_msg(frame.labels, '16UC1', stamp, frame_id))
+        info = CameraInfo()
+        info.header.stamp = stamp
+        info.header.frame_id = frame_id
+        info.width, info.height = camera.width, camera.height
+        info.distortion_model = 'plumb_bob'
+        info.d = [0.0] * 5
+        info.k = [float(v) for v in camera.intrinsics().flatten()]
+        info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        info.p = [float(v) for v in camera.projection().flatten()]
+        self.info_pub.publish(info)
+        self._publish_compressed(frame.rgb, frame.labels, sim_time, stamp, frame_id)
+
+    def _publish_compressed(self, rgb: np.ndarray, labels: np.ndarray, sim_time: float, stamp: Time,
+                            frame_id: str) -> None:
+        # Nothing is encoded for nobody: a topic without subscribers costs no CPU.
+        want_image = self.image_compressed_pub.get_subscription_count() > 0
+        want_labels = self.labels_compressed_pub.get_subscription_count() > 0
+        if not (want_image or want_labels) or not self.throttle.due(sim_time):
+            return
+        self.throttle.take(sim_time)
+        if want_image:
+            self.image_compressed_pub.publish(compressed_msg(encode_rgb_jpeg(rgb, self.jpeg_quality),
+                                                             RGB8_JPEG_FORMAT, stamp, frame_id))
+        if want_labels:
+            self.labels_compressed_pub.publish(compressed_msg(encode_labels_png(labels), LABELS_PNG_FORMAT,
+                                                              stamp, frame_id))
