@@ -20,6 +20,7 @@ setup(
         'console_scripts': [
             'role_engine = role_engine.role_engine_node:main',
             'role_player = role_engine.role_player_node:main',
+            'robot_tracker = role_engine.robot_tracker_node:main',
         ],
     },
 )

@@ -1,9 +1,12 @@
-"""role_engine and four role_players form the diamond on the bridge through topics only.
+"""role_engine, the robot_tracker and four role_players form the diamond on the bridge through topics only.
 
 The engine runs as /role_engine, each player in its robot's namespace (/<robot>/role_player), so
 the four players have four unique node names.
 
-The nodes see the robots only through the top-view camera (colour tracking); the test
+The nodes see the robots only through the top-view camera (colour tracking: the engine's own and
+the robot_tracker's, whose per-robot poses the players follow). The players read no scenario: in
+the diamond test their settings file names a scenario that does not exist (as on a robot with no
+bridge files), and the team and the round's map reach them from the engine's topics. The test
 checks against the bridge's ground truth: every robot ends at its assigned formation
 point, and no two robot discs ever overlap. A stopped role player makes the engine
 renegotiate and the other three still complete a formation; a malformed process role on
@@ -24,7 +27,8 @@ from role_interfaces.msg import ProcessRole, RoleAssignment
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import RELIABLE
 from bridge_helpers import bridge_spec
-from role_helpers import engine_spec, player_node, player_process, player_spec
+from role_helpers import engine_spec, player_node, player_process, player_spec, settings_without_scenario, \
+    tracker_spec
 from pybullet_bridge.core.scenario import load_scenario
 from role_engine.core.formation_task import load_formation_task
 
@@ -63,13 +67,15 @@ class GroundTruthLog:
                     self.min_gap, self.closest = gap, (a, b)
 
 
-def start_nodes(session, settings_file, robots=ROBOTS):
+def start_nodes(session, settings_file, robots=ROBOTS, player_settings=None):
+    """The bridge, the engine, the tracker and the players (with ``player_settings`` when given)."""
     task = load_formation_task(settings_file)
     session.start(bridge_spec(task.scenario, real_time_factor=REAL_TIME_FACTOR, start_paused=False,
                               ground_truth_rate=20.0))
     session.start(engine_spec(settings_file))
+    session.start(tracker_spec())
     for robot in robots:
-        session.start(player_spec(robot, settings_file))
+        session.start(player_spec(robot, player_settings or settings_file))
     return task
 
 
@@ -103,9 +109,12 @@ def assert_formation_completed(truth, arrived, assignment, timeout):
     assert min_gap > 0.0, f'{closest} collided (gap {min_gap:.3f} m)'
 
 
-def test_role_players_form_the_diamond_without_collision(session, settings_file):
+def test_role_players_form_the_diamond_without_collision(session, settings_file, tmp_path):
     began = time.monotonic()
-    task = start_nodes(session, settings_file)
+    # The players' settings name a scenario that does not exist: they need no file of the bridge's.
+    player_settings = settings_without_scenario(settings_file, tmp_path)
+    assert not load_formation_task(player_settings, check_scenario=False).scenario.exists()
+    task = start_nodes(session, settings_file, player_settings=player_settings)
     truth, arrived = watch_ground_truth_and_arrivals(session, task)
     assignment = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
                                           timeout=60, latched=True)
@@ -113,7 +122,8 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file)
     assert sorted(assignment.robots) == sorted(ROBOTS)
     assert len(set(assignment.role_ids)) == 4
     # One node per robot, each named role_player in its robot's namespace: four unique names.
-    session.wait_for_nodes(['/role_engine'] + [player_node(robot) for robot in ROBOTS], timeout=30.0)
+    session.wait_for_nodes(['/role_engine', '/robot_tracker'] + [player_node(robot) for robot in ROBOTS],
+                           timeout=30.0)
     graph = session.observer.node.get_node_names_and_namespaces()
     players = sorted(ns for name, ns in graph if name == 'role_player')
     assert players == sorted(f'/{robot}' for robot in ROBOTS)
@@ -179,18 +189,23 @@ def bad_settings(tmp_path, config_dir, edit):
     ('role_engine', None, {'exit_when_done': 'yes'}, {}, 'parameter exit_when_done: must be true or false'),
     ('role_engine', None, {}, {'silence_timeout': -1.0}, 'silence_timeout'),
     ('role_engine', None, {}, {'problem_detection.stuck_time': 0.0}, 'problem_detection.stuck_time'),
+    # The team comes from the engine (roles/team): a robot outside it stops once the team is heard.
     ('role_player', '/pioneer_9', {}, {}, 'parameter robot: must be one of pioneer_1, pioneer_2'),
     ('role_player', None, {}, {}, "the node must run in its robot's namespace"),
     ('role_player', '/burger_1', {'robot': 'burger_2'}, {}, "parameter robot: 'burger_2' differs from the node's "
                                                              'namespace /burger_1'),
     ('role_player', '/burger_1', {}, {'robot_avoidance.sigma': 'stiff'}, 'robot_avoidance.sigma'),
     ('role_player', '/burger_1', {}, {'trajectory.states': 1}, 'trajectory.states'),
+    ('robot_tracker', None, {'min_area_px': 0}, None, 'parameter min_area_px: must be in [1, inf]'),
+    ('robot_tracker', None, {'camera': '/'}, None, 'parameter camera: must be a non-empty namespace'),
 ])
 def test_bad_parameters_stop_the_node_with_a_message(session, tmp_path, config_dir, executable, namespace, parameters,
                                                      edit, expected):
     parameters = dict(parameters)
     if edit is not None:
         parameters['settings_file'] = str(bad_settings(tmp_path, config_dir, edit))
+    if namespace == '/pioneer_9':
+        session.start(engine_spec(config_dir / 'roles' / 'formation_demo.yaml'))
     spec = NodeSpec('role_engine', executable, name=executable, namespace=namespace, parameters=[parameters])
     process = session.start(spec)
     assert session.wait_for_exit(spec.label, timeout=60.0) == 2

@@ -26,11 +26,11 @@ from collab_tools.qos import RELIABLE, SENSOR_IN
 from bridge_helpers import bridge_spec
 from role_engine.core.formation_task import load_formation_task
 from role_engine.role_parameters import ENGINE_TUNING, PLAYER_TUNING
-from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec
+from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec, tracker_spec
 
 ROS_OWN = {'use_sim_time', 'start_type_description_service'}   # rclpy's, not the node's
 ENGINE_READ_ONLY = {'settings_file', 'camera', 'exit_when_done', 'team_namespace'}
-PLAYER_READ_ONLY = {'settings_file', 'camera', 'robot', 'team_namespace'}
+PLAYER_READ_ONLY = {'settings_file', 'robot', 'team_namespace'}   # no camera: it follows tracked_pose
 #: The engine never excludes a robot: the player test watches one player alone.
 PATIENT_ENGINE = {'silence_timeout': 1000.0, 'problem_detection.stuck_time': 1000.0,
                   'problem_detection.off_role_distance': 100.0}
@@ -185,8 +185,11 @@ def test_role_player_applies_its_tuning_and_refuses_the_rest(session, settings_f
     heard = Heard(session.observer.node, robot)
     session.start(bridge_spec(task.scenario, real_time_factor=1.0, start_paused=False))
     session.start(engine_spec(settings_file, **PATIENT_ENGINE))
+    session.start(tracker_spec())
     session.start(player_spec(robot, settings_file))
     session.wait_for_nodes([node], timeout=60.0)
+    # The tuning is declared once the team description (its robot's limits) has come from the engine.
+    wait_until(lambda: 'replan_period' in descriptors(session, node), 60, 'the tuning parameters')
     found = assert_declared(session, node, PLAYER_TUNING, PLAYER_READ_ONLY)
     assert found['max_linear_velocity'].floating_point_range[0].to_value == pytest.approx(1.2)   # pioneer limit
     for name, value, reason in (('replan_period', 'fast', None), ('gp.max_iterations', 2.5, None),
@@ -249,6 +252,8 @@ def test_role_player_applies_its_tuning_and_refuses_the_rest(session, settings_f
 ])
 def test_bad_start_parameters_exit_2(session, settings_file, spec_of, expected):
     spec = spec_of(settings_file)
+    if spec.executable == 'role_player':                     # its limits come with the engine's team
+        session.start(engine_spec(settings_file))
     process = session.start(spec)
     assert session.wait_for_exit(spec.label, timeout=60.0) == 2
     log = process.log_path.read_text()

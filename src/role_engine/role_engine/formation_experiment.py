@@ -1,7 +1,7 @@
 """The diamond formation in simulation, recorded, measured from the bag (``scripts/experiment roles-formation``).
 
-Runs ``config/experiments/roles_formation.yaml`` (pybullet bridge + role_engine + one role_player
-per robot, every topic of interest recorded) the way SGCM's simulated experiments do
+Runs ``config/experiments/roles_formation.yaml`` (pybullet bridge + role_engine + robot_tracker + one
+role_player per robot, every topic of interest recorded) the way SGCM's simulated experiments do
 (:func:`collab_tools.orchestration.experiment.run_experiment`), then reads the bag:
 
 - ``/roles/assignment``: the negotiation rounds (who plays which role, goals, excluded robots);
@@ -231,7 +231,7 @@ def run_formation(config_dir: str | Path, run_dir: str | Path, log: Log = print,
     results = formation_results(flog, radii, task.arrival_tolerance)
     results.update({'experiment': 'roles-formation', 'mode': 'sim', 'bag': str(bag), 'session_message': message,
                     'session_exit_code': exit_code, 'wall_s': wall, 'stopped_player': stop_player,
-                    'positions_from': 'role players: camera colour tracking; measures: ground truth'})
+                    'positions_from': 'role players: robot_tracker (camera colour tracking); measures: ground truth'})
     results['acceptance'] = formation_acceptance(results, stop_player)
     (run_dir / 'results.json').write_text(json.dumps(results, indent=2) + '\n')
     (run_dir / 'formation.md').write_text(formation_markdown(results))

@@ -14,6 +14,21 @@ says ``aborted`` and why, and the node exits if ``exit_when_done``. A first nego
 no workable assignment says ``infeasible``. A malformed process role on the channel is dropped
 with a log line. Its tuning (role_parameters.ENGINE_TUNING) are dynamic ROS parameters whose
 defaults are the shared settings file's values.
+
+It owns the team definition (the settings file's bridge scenario) and hands what the other role
+nodes need to them over ROS, so they read no scenario and can run on other machines:
+
+* ``<team>/roles/team`` (role_interfaces/Team, latched, at start): names, types, radii, velocity
+  limits, colours and heights; header.frame_id = the scenario's world frame;
+* ``<team>/roles/map`` (nav_msgs/OccupancyGrid, latched, Nav2 conventions, world frame): the
+  environment each assignment was negotiated on (the static obstacles as the camera saw them,
+  robots of the round removed, robots excluded from it left as obstacles), published just
+  before the assignment with the same stamp, so a player knows which round a map belongs to.
+
+It keeps its own camera subscription and colour tracking rather than the robot_tracker's poses:
+it runs where the camera is, it segments the image itself, and tracking the robots on the very
+image it segments keeps their discs (cut out of the obstacles) aligned with it; a pose from
+another frame would be off by the robots' motion and leave parts of them as obstacles.
 """
 from __future__ import annotations
 
@@ -22,7 +37,8 @@ import time
 
 from rclpy.node import Node
 from rclpy.task import Future
-from role_interfaces.msg import ProcessRole, RoleAssignment
+from nav_msgs.msg import OccupancyGrid
+from role_interfaces.msg import ProcessRole, RoleAssignment, Team
 
 from pybullet_bridge.core.scenario import load_scenario
 from collab_tools import qos
@@ -40,7 +56,7 @@ from .core.problems import ProblemWatch
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
 from .core.tuning import EngineTuning
-from .role_messages import process_role_msg, shared_role
+from .role_messages import occupancy_grid_msg, process_role_msg, shared_role, team_msg
 from .role_parameters import ENGINE_TUNING, declare_tuning
 
 
@@ -57,7 +73,8 @@ def load_settings(path: str):
 
 
 def declare_settings(params: NodeParameters):
-    """The read-only parameters both role nodes share: (task, scenario, team, camera namespace)."""
+    """The engine's read-only settings: (task, scenario, team, camera namespace). The players take only the
+    settings file (role_player_node.declare_player_settings): the team and map reach them over ROS."""
     path = params.declare('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml): the '
                           'scenario, the formation and the team-wide defaults of the tuning parameters',
                           required=True)
@@ -77,10 +94,16 @@ class RoleEngine(Node):
         self.tuning = declare_tuning(params, EngineTuning.from_task(self.task), ENGINE_TUNING, self._retune)
         self.members = {m.name: m for m in self.team}
         self.frame = GridFrame.covering(scenario.world.bounds, self.task.grid_resolution)
+        self.world_frame = scenario.world.frame_id
         self.targets = [TrackedTarget(m.name, m.color, m.robot_type.radius, m.height) for m in self.team]
         self.camera = TopCamera(self, self.names.team(camera))
         self.assignment_pub = self.create_publisher(RoleAssignment, self.names.team('roles/assignment'), qos.LATCHED)
         self.channel_pub = self.create_publisher(ProcessRole, self.names.team('roles/channel'), qos.RELIABLE)
+        self.map_pub = self.create_publisher(OccupancyGrid, self.names.team('roles/map'), qos.LATCHED)
+        team_pub = self.create_publisher(Team, self.names.team('roles/team'), qos.LATCHED)
+        team = team_msg(self.team, self.world_frame)
+        team.header.stamp = self.get_clock().now().to_msg()
+        team_pub.publish(team)
         self.create_subscription(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
         self.watch = ProblemWatch(self.tuning.problems)
         self.round = 0
@@ -221,6 +244,9 @@ class RoleEngine(Node):
             self.get_logger().info(f'round {self.round} ({why}): ' + ', '.join(
                 f'{r}->{j}' for r, j in zip(msg.robots, msg.role_ids)) + f' (planned in {time.perf_counter() - began:.1f} s wall)')
         msg.header.stamp = self.get_clock().now().to_msg()
+        if msg.status == 'assigned':
+            # Before the assignment, with its stamp: the players play this round on this map.
+            self.map_pub.publish(occupancy_grid_msg(environment, self.world_frame, msg.header.stamp))
         self.assignment_pub.publish(msg)
         for role in msg.initial_roles:
             self.channel_pub.publish(role)

@@ -1,10 +1,19 @@
-"""ProcessRole messages <-> (N+1, 4) process-role arrays."""
+"""Role messages <-> core objects: ProcessRole <-> (N+1, 4) process-role arrays, Team <-> team
+members, nav_msgs/OccupancyGrid <-> Environment (core.occupancy), tracked poses."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from role_interfaces.msg import ProcessRole
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import OccupancyGrid
+from role_interfaces.msg import ProcessRole, Team, TeamMember as TeamMemberMsg
 
 from .core.conflict import SharedRole
+from .core.environment import Environment, RobotType
+from .core.errors import RoleEngineError
+from .core.formation_task import TeamMember
+from .core.occupancy import OccupancyCells, environment_from_cells, occupancy_cells, quaternion_yaw
 
 
 def process_role_msg(robot: str, role_id: str, round_: int, version: int, start_time: float,
@@ -39,3 +48,87 @@ def shared_role(msg: ProcessRole) -> SharedRole:
     if not np.isfinite(msg.start_time):
         raise ValueError(f'process role of {msg.robot!r}: start_time must be finite (got {msg.start_time})')
     return SharedRole(msg.robot, states, msg.dt * (len(states) - 1), msg.radius, msg.start_time)
+
+
+# --- the team (role_engine -> role players, robot tracker) -------------------------------------
+def team_msg(team: list[TeamMember], frame_id: str) -> Team:
+    """The team as the latched Team message (header.frame_id: the world frame of poses and map)."""
+    msg = Team()
+    msg.header.frame_id = frame_id
+    for member in team:
+        kind = member.robot_type
+        msg.members.append(TeamMemberMsg(
+            name=member.name, robot_type=kind.name, radius=float(kind.radius), height=float(member.height),
+            color=[float(c) for c in member.color], max_linear_velocity=float(kind.max_linear_velocity),
+            max_angular_velocity=float(kind.max_angular_velocity)))
+    return msg
+
+
+def team_of(msg: Team, inflation_margin: float) -> list[TeamMember]:
+    """The members of a Team message with the planners' inflation margin; ValueError naming the field."""
+    team, names = [], set()
+    for index, member in enumerate(msg.members):
+        where = f'team.members[{index}]'
+        if not member.name or member.name in names:
+            raise ValueError(f'{where}.name: must be a non-empty name used once (got {member.name!r})')
+        names.add(member.name)
+        try:
+            kind = RobotType(member.robot_type or 'robot', float(member.radius), inflation_margin=inflation_margin,
+                             max_linear_velocity=float(member.max_linear_velocity),
+                             max_angular_velocity=float(member.max_angular_velocity))
+        except RoleEngineError as error:
+            raise ValueError(f'{where} ({member.name}): {error}') from None
+        if kind.radius <= 0.0:
+            raise ValueError(f'{where}.radius: must be > 0 (got {member.radius})')
+        color = tuple(float(c) for c in member.color)
+        if not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in color) or sum(color) <= 0.0:
+            raise ValueError(f'{where}.color: must be r g b in [0, 1], not all zero (got {color})')
+        if not (math.isfinite(member.height) and member.height >= 0.0):
+            raise ValueError(f'{where}.height: must be finite and >= 0 (got {member.height})')
+        team.append(TeamMember(member.name, kind, color, float(member.height)))
+    if not team:
+        raise ValueError('team.members: the team has no robot')
+    return team
+
+
+# --- the round's map (role_engine -> role players) ---------------------------------------------
+def occupancy_grid_msg(environment: Environment, frame_id: str, stamp) -> OccupancyGrid:
+    """The environment as a nav_msgs/OccupancyGrid (Nav2 conventions, core.occupancy)."""
+    cells = occupancy_cells(environment)
+    msg = OccupancyGrid()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.info.map_load_time = stamp
+    msg.info.resolution = float(cells.resolution)
+    msg.info.width, msg.info.height = cells.width, cells.height
+    msg.info.origin.position.x, msg.info.origin.position.y = cells.origin
+    msg.info.origin.orientation.w = 1.0
+    msg.data = cells.data.tolist()
+    return msg
+
+
+def environment_of(msg: OccupancyGrid, name: str = 'map') -> Environment:
+    """The environment of an OccupancyGrid; ValueError (RoleEngineError) naming the field."""
+    info, q = msg.info, msg.info.origin.orientation
+    cells = OccupancyCells(info.width, info.height, info.resolution,
+                           (info.origin.position.x, info.origin.position.y), np.asarray(msg.data, dtype=np.int8))
+    return environment_from_cells(cells, origin_yaw=quaternion_yaw(q.x, q.y, q.z, q.w), name=name)
+
+
+# --- tracked poses (robot_tracker -> role players) ---------------------------------------------
+def pose_msg(x: float, y: float, yaw: float, frame_id: str, stamp) -> PoseStamped:
+    msg = PoseStamped()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.pose.position.x, msg.pose.position.y = float(x), float(y)
+    msg.pose.orientation.z, msg.pose.orientation.w = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+    return msg
+
+
+def planar_pose(msg: PoseStamped) -> tuple[float, float, float]:
+    """(x, y, yaw) of a pose; ValueError when it is not finite."""
+    p, q = msg.pose.position, msg.pose.orientation
+    pose = (float(p.x), float(p.y), quaternion_yaw(q.x, q.y, q.z, q.w))
+    if not all(math.isfinite(v) for v in pose) or not any((q.x, q.y, q.z, q.w)):
+        raise ValueError(f'tracked pose: position and orientation must be finite and set (got {pose})')
+    return pose

@@ -3,8 +3,8 @@
 Every entry is dynamic: the node replaces its tuning object (core.tuning) when the parameter is
 set, and reads that object at every use, so the value applies from the next re-plan, command or
 check. The defaults are the shared settings file's values (team-wide); a start-up parameter wins.
-The nodes' other parameters (settings_file, camera, robot, team_namespace, exit_when_done) are
-read-only: they decide what the node is built from.
+The nodes' other parameters (settings_file, team_namespace; the engine's camera and exit_when_done;
+the player's robot) are read-only: they decide what the node is built from.
 """
 from __future__ import annotations
 

@@ -2,7 +2,8 @@
 
 Settings file (YAML, e.g. config/roles/formation_demo.yaml; unknown keys are errors)::
 
-    scenario: ../scenarios/roles_formation.yaml  # the bridge scenario (robots, types, colours), relative
+    scenario: ../scenarios/roles_formation.yaml  # the bridge scenario (robots, types, colours), relative;
+                                   # read by the role engine only (players get the team over ROS)
     formation: {type: diamond, center: [0, 0], size: 2.0, rotation: 0.0}
                                    # circle | square | diamond | line (core/formations.py); the number of
                                    # points is the number of robots taking part in the negotiation round
@@ -96,13 +97,15 @@ class FormationTask:
                                             join_path(str(self.source), 'gp'))
 
 
-def load_formation_task(path: str | Path) -> FormationTask:
+def load_formation_task(path: str | Path, *, check_scenario: bool = True) -> FormationTask:
+    """The settings file; ``check_scenario`` False: the scenario file need not exist (a role player
+    takes the team and the map from the role engine's topics, on a machine without the scenario)."""
     path = Path(path)
     where = str(path)
     data = read_yaml_file(path, 'settings file')
     fields = Fields(data, where, allowed=TOP_LEVEL_KEYS)
     scenario = (path.parent / fields.string('scenario')).resolve()
-    if not scenario.is_file():
+    if check_scenario and not scenario.is_file():
         raise fail(fields.path_of('scenario'), f"scenario file '{scenario}' does not exist")
     formation = dict(Fields(fields.raw('formation'), fields.path_of('formation'),
                             allowed=('type', 'center', 'size', 'diameter', 'side', 'width', 'length',

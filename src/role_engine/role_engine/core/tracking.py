@@ -10,6 +10,10 @@ of an upright cylinder of the robot's radius and height fitted to the blob's out
 (:meth:`ColorTracker._fit_cylinder`), which also ignores the notch of the dark heading
 marker. The heading, when visible, points from the disc centre to the centroid of the
 dark marker inside the disc.
+
+:class:`TeamTracker` follows a whole team frame after frame (the robot_tracker node): each
+robot's blob is searched near where it was last found, and its last seen heading is kept
+while the marker is hidden.
 """
 from __future__ import annotations
 
@@ -76,8 +80,9 @@ class ColorTracker:
 
     def _mask(self, chroma: np.ndarray, bright: np.ndarray, target: TrackedTarget) -> np.ndarray:
         wanted = chromaticity(np.asarray(target.color))
-        distance = np.linalg.norm(chroma - wanted, axis=2)
-        return (distance <= self.chroma_tolerance) & bright
+        # Squared distance channel by channel: the same test as a norm over axis 2, ~10x faster.
+        squared = sum((chroma[..., k] - wanted[k]) ** 2 for k in range(3))
+        return (squared <= self.chroma_tolerance ** 2) & bright
 
     def track(self, rgb: np.ndarray, previous: dict[str, Observation] | None = None) -> dict[str, Observation]:
         """Observations of every target; a target not seen gets ``found=False``."""
@@ -151,15 +156,80 @@ class ColorTracker:
                  target: TrackedTarget) -> float | None:
         """Direction from the disc centre to the dark marker inside the disc, or None."""
         height, width = rgb.shape[:2]
-        rows, cols = np.mgrid[0:height, 0:width]
-        inside = np.hypot(cols - centre[0], rows - centre[1]) <= 0.95 * radius_px
-        dark = inside & (rgb.astype(float).sum(axis=2) < self.min_brightness)
+        # Only the window around the disc can hold its marker (the whole image gives the same answer).
+        reach = 0.95 * radius_px
+        x0, x1 = max(0, math.floor(centre[0] - reach)), min(width, math.ceil(centre[0] + reach) + 1)
+        y0, y1 = max(0, math.floor(centre[1] - reach)), min(height, math.ceil(centre[1] + reach) + 1)
+        if x0 >= x1 or y0 >= y1:
+            return None
+        rows, cols = np.mgrid[y0:y1, x0:x1]
+        inside = np.hypot(cols - centre[0], rows - centre[1]) <= reach
+        dark = inside & (rgb[y0:y1, x0:x1].astype(float).sum(axis=2) < self.min_brightness)
         if not dark.any():
             return None
         rows, cols = np.nonzero(dark)
-        marker = np.array([cols.mean(), rows.mean()])
+        marker = np.array([cols.mean() + x0, rows.mean() + y0])
         if np.hypot(*(marker - centre)) < 0.5:
             return None
         world = self.geometry.pixel_to_world(np.vstack([np.asarray(centre), marker]), z=target.height)
         dx, dy = world[1] - world[0]
         return float(math.atan2(dy, dx))
+
+
+@dataclass(frozen=True)
+class TrackingSettings:
+    """The colour matching thresholds of :class:`ColorTracker` (the robot_tracker's parameters)."""
+
+    chroma_tolerance: float = 0.06     # max chromaticity distance of a robot's pixel from its colour
+    min_brightness: float = 60.0       # r + g + b (0..765) below which a pixel is too dark to match
+    min_area_px: int = 4               # smallest blob taken for a robot
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.chroma_tolerance) and self.chroma_tolerance > 0.0):
+            raise RoleEngineError(f'chroma_tolerance: must be > 0 (got {self.chroma_tolerance})')
+        if not (math.isfinite(self.min_brightness) and 0.0 <= self.min_brightness <= 765.0):
+            raise RoleEngineError(f'min_brightness: must be in [0, 765] (got {self.min_brightness})')
+        if int(self.min_area_px) != self.min_area_px or self.min_area_px < 1:
+            raise RoleEngineError(f'min_area_px: must be an integer >= 1 (got {self.min_area_px})')
+
+
+@dataclass(frozen=True)
+class TrackedPose:
+    """A robot's planar pose in one frame; ``heading_seen`` False: the yaw is the last one seen."""
+
+    name: str
+    x: float
+    y: float
+    yaw: float
+    heading_seen: bool
+
+
+class TeamTracker:
+    """Every robot of a team, frame after frame (module docstring).
+
+    :meth:`update` returns the pose of each robot found in the frame whose heading has been seen
+    at least once (a pose needs a yaw); a robot not found has no pose in that frame.
+    """
+
+    def __init__(self, targets: list[TrackedTarget], settings: TrackingSettings = TrackingSettings()):
+        self.targets = list(targets)
+        self.settings = settings
+        ColorTracker(self.targets, None)          # validates the targets now, not at the first frame
+        self.last_found: dict[str, Observation] = {}
+        self.headings: dict[str, float] = {}
+
+    def update(self, rgb: np.ndarray, geometry: TopViewGeometry) -> dict[str, TrackedPose]:
+        s = self.settings
+        tracker = ColorTracker(self.targets, geometry, chroma_tolerance=s.chroma_tolerance,
+                               min_brightness=s.min_brightness, min_area_px=int(s.min_area_px))
+        poses = {}
+        for name, observation in tracker.track(rgb, self.last_found).items():
+            if not observation.found:
+                continue
+            self.last_found[name] = observation
+            if observation.heading is not None:
+                self.headings[name] = observation.heading
+            if name in self.headings:
+                poses[name] = TrackedPose(name, *observation.position, self.headings[name],
+                                          observation.heading is not None)
+        return poses
