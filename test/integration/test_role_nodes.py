@@ -121,6 +121,12 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file,
     assert assignment.status == 'assigned', assignment.message
     assert sorted(assignment.robots) == sorted(ROBOTS)
     assert len(set(assignment.role_ids)) == 4
+    # The round's map, latched for the players: Nav2's conventions over the arena, the assignment's stamp.
+    grid = session.wait_for_message('/roles/map', 'nav_msgs/msg/OccupancyGrid', timeout=30, latched=True)
+    assert grid.header.stamp == assignment.header.stamp and grid.header.frame_id == 'world'
+    assert (grid.info.width, grid.info.height) == (100, 100) and grid.info.resolution == pytest.approx(0.05)
+    assert (grid.info.origin.position.x, grid.info.origin.position.y) == (-2.5, -2.5)
+    assert 0 < sum(1 for v in grid.data if v == 100) < 0.2 * len(grid.data)     # the pillar, crate and shelf
     # One node per robot, each named role_player in its robot's namespace: four unique names.
     session.wait_for_nodes(['/role_engine', '/robot_tracker'] + [player_node(robot) for robot in ROBOTS],
                            timeout=30.0)

@@ -4,7 +4,8 @@ The tracker takes the team from the role engine's latched /roles/team (it reads 
 every robot on the top camera and publishes PoseStamped poses stamped with the camera frame's
 stamp. Checked against /ground_truth/bodies (interpolated at the pose's stamp) while one robot
 drives; its colour thresholds are dynamic (a blob-size threshold above every robot's blob stops
-the poses, setting it back brings them back), its camera and team namespace read-only.
+the poses, setting it back brings them back), its camera and team namespace read-only. A role
+player drives on these poses and stops its robot when they stop coming.
 """
 
 import math
@@ -20,7 +21,7 @@ from collab_tools.qos import COMMAND_OUT, SENSOR_IN
 from bridge_helpers import bridge_spec
 from role_engine.core.formation_task import load_formation_task
 from role_engine.robot_tracker_node import TRACKING_PARAMETERS
-from role_helpers import TRACKER, engine_spec, tracker_spec
+from role_helpers import TRACKER, engine_spec, player_process, player_spec, tracker_spec
 from test_role_parameters import PATIENT_ENGINE, assert_declared, set_one, wait_until
 
 ROBOTS = ('pioneer_1', 'pioneer_2', 'burger_1', 'burger_2')
@@ -146,3 +147,29 @@ def test_tracker_publishes_every_robot_close_to_ground_truth_and_applies_its_thr
     log = session.nodes['robot_tracker'].log_path.read_text()
     assert 'min_area_px set to 100000' in log and 'Traceback' not in log
 
+
+
+def test_a_player_without_fresh_poses_stops_its_robot(session, config_dir):
+    """The player drives on the tracker's poses; when they stop coming (tracker gone) it stops the robot."""
+    settings = config_dir / 'roles' / 'formation_demo.yaml'
+    task = load_formation_task(settings)
+    node = session.observer.node
+    commands, lock = [], threading.Lock()
+
+    def on_command(msg):
+        with lock:
+            commands.append(msg.linear.x)
+    node.create_subscription(Twist, '/pioneer_1/cmd_vel', on_command, SENSOR_IN)
+    session.start(bridge_spec(task.scenario, real_time_factor=1.0, start_paused=False))
+    session.start(engine_spec(settings, **PATIENT_ENGINE))
+    session.start(tracker_spec())
+    session.start(player_spec('pioneer_1', settings))
+    wait_until(lambda: any(abs(v) > 0.05 for v in list(commands)), 90, 'pioneer_1 driving')
+    session.stop('robot_tracker')
+    time.sleep(3.0)                                        # > POSE_TIMEOUT (1 s of ROS time at RTF 1)
+    with lock:
+        del commands[:]
+    wait_until(lambda: len(commands) >= 3, 30, 'commands after the tracker stopped')
+    assert all(v == 0.0 for v in list(commands))
+    log = player_process(session, 'pioneer_1').log_path.read_text()
+    assert 'no tracked pose of pioneer_1 for 1 s: stopped' in log and 'Traceback' not in log

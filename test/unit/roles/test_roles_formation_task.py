@@ -36,6 +36,19 @@ def test_bad_settings_name_the_field(tmp_path, config_dir, edit, message):
         load_formation_task(path)
 
 
+def test_a_player_reads_the_settings_without_the_scenario(tmp_path, config_dir):
+    """A role player's host may lack the scenario (the team comes over ROS): only the engine checks it."""
+    import yaml
+    data = yaml.safe_load((config_dir / 'roles' / 'formation_demo.yaml').read_text())
+    data['scenario'] = 'missing.yaml'
+    path = tmp_path / 'settings.yaml'
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ValueError, match="scenario file '.*missing.yaml' does not exist"):
+        load_formation_task(path)
+    task = load_formation_task(path, check_scenario=False)
+    assert task.scenario == tmp_path / 'missing.yaml' and task.replan_period == data['replan_period']
+
+
 def test_replan_sees_the_crossing_robot_and_keeps_start_goal_and_timing():
     environment = Environment(np.zeros((80, 80), dtype=bool), 0.05, (-2.0, -2.0))
     robot_type = RobotType('small', 0.1, max_linear_velocity=1.0)
