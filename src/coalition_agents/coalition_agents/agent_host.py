@@ -62,7 +62,7 @@ from rclpy.parameter import Parameter
 
 from collab_tools import qos
 from collab_tools.names import TeamNode, check_robot_name, join
-from collab_tools.node_support import ConfigurationError
+from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
 
 from .agent_channel import CHANNEL_TOPIC, inbox_topic
@@ -194,22 +194,45 @@ class AgentHost(Node):
         self.agents.clear()
 
 
+def _tear_down(host: AgentHost | None, executor=None) -> None:
+    """Stop the executor (and its worker threads), then destroy the agents, the host and the context.
+    First join rclpy's signal thread: it may still be triggering the executor's SIGINT guard
+    condition that executor.shutdown() frees (SIGSEGV at the end of runs; see stop_signal_handling)."""
+    stop_signal_handling()
+    if executor is not None:
+        executor.shutdown()
+        pool = getattr(executor, '_executor', None)  # MultiThreadedExecutor: callbacks still queued
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+    if host is not None:
+        host.destroy_agents()
+        host.destroy_node()
+    rclpy.try_shutdown()
+
+
 def main(args=None) -> int:
     rclpy.init(args=args)
+    host = None
     try:
         host = AgentHost(args)
         host.wait_for_channel_recorder()
         host.start_agents()
     except (ConfigurationError, ParameterException) as error:
         rclpy.logging.get_logger('schema_agent_host').fatal(f'cannot start: {error}')
-        rclpy.try_shutdown()
+        _tear_down(host)
         return 2
-    executor = (SingleThreadedExecutor() if host.executor_kind == 'single'
-                else MultiThreadedExecutor(num_threads=len(host.agents) + 1))
-    for node in (host, *host.agents):
-        executor.add_node(node)
-    waiting = host.finishing()
+    except (KeyboardInterrupt, ExternalShutdownException, RuntimeError) as error:
+        if isinstance(error, RuntimeError) and rclpy.ok():
+            raise
+        _tear_down(host)  # stopped while starting (e.g. waiting for the recorder): a normal stop
+        return 0
+    executor = None
     try:
+        executor = (SingleThreadedExecutor() if host.executor_kind == 'single'
+                    else MultiThreadedExecutor(num_threads=len(host.agents) + 1))
+        for node in (host, *host.agents):
+            executor.add_node(node)
+        waiting = host.finishing()
         while rclpy.ok() and (not waiting or not all(agent.finished.done() for agent in waiting)):
             executor.spin_once(timeout_sec=0.1)
         if waiting:
@@ -223,10 +246,7 @@ def main(args=None) -> int:
         if rclpy.ok():
             raise
     finally:
-        executor.shutdown()
-        host.destroy_agents()
-        host.destroy_node()
-        rclpy.try_shutdown()
+        _tear_down(host, executor)
     return 0
 
 

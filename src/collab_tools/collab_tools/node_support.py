@@ -6,6 +6,8 @@ end on its own sets ``exit_when_done`` and a ``finished`` Future, so an orchestr
 script can wait for it; others spin until shutdown.
 """
 
+import signal
+
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
@@ -21,6 +23,18 @@ class ConfigurationError(ValueError):
 def declare(node: Node, name: str, default, description: str):
     # Dynamic typing: a YAML `0` for a float parameter gets our clear error, not an rclpy exception.
     node.declare_parameter(name, default, ParameterDescriptor(description=description, dynamic_typing=True))
+
+
+def stop_signal_handling() -> None:
+    """Call before destroying executors and nodes at the end of main(): joins rclpy's signal thread.
+
+    Why: on SIGINT/SIGTERM, rclpy's signal thread triggers every executor's SIGINT guard condition
+    (read from a list without a lock), then shuts the context down. The woken main thread tears
+    down, which frees those guard conditions; a signal thread still in its loop then touches freed
+    memory: SIGSEGV (exit -11) at the end of a run on a busy machine.
+    ``uninstall_signal_handlers`` joins the thread. A second SIGINT must not break the clean-up."""
+    rclpy.uninstall_signal_handlers()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], ...] = ()) -> int:
@@ -48,6 +62,7 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
         if rclpy.ok():
             raise
     finally:
+        stop_signal_handling()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
