@@ -1,7 +1,8 @@
 """What the workspace's nodes share: parameter declaration and the main() life cycle.
 
 A node class raises :class:`ConfigurationError` (or the error types passed to :func:`run`)
-from its constructor for a bad parameter (exit code 2 with the message). A node that can
+from its constructor for a bad parameter (exit code 2 with the message), or from a callback for a
+setting it can only check later (the same exit code 2). A node that can
 end on its own sets ``exit_when_done`` and a ``finished`` Future, so an orchestration
 script can wait for it; others spin until shutdown.
 """
@@ -47,6 +48,7 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
         rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2
+    code = 0
     try:
         if getattr(node, 'exit_when_done', False):
             rclpy.spin_until_future_complete(node, node.finished)
@@ -56,6 +58,11 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
             rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except (ConfigurationError, *config_errors) as error:
+        # A setting the node can only check once it hears from its team (a role player's limits
+        # come with the team description): the same exit 2 as at start.
+        rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
+        code = 2
     except RuntimeError:  # rclpy's RCLError ("publisher's context is invalid")
         # SIGINT shuts the context down asynchronously; a timer that is publishing at that
         # moment fails. Only a live context makes it an error.
@@ -65,4 +72,4 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
         stop_signal_handling()
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return code

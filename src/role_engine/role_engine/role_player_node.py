@@ -95,9 +95,8 @@ class RolePlayer(Node):
         self.get_logger().info(f"{self.robot}: waiting for the team description on {self.names.team('roles/team')}")
 
     def _fatal(self, message: str) -> None:
-        """A start-up error found once the team is known: exit 2 with the message, as node_support.run does."""
-        self.get_logger().fatal(f'cannot start: {message}')
-        raise SystemExit(2)
+        """A start-up error found once the team is known: node_support.run exits 2 with the message."""
+        raise ConfigurationError(message)
 
     def _on_team(self, msg: Team) -> None:
         if self.member is not None:
