@@ -86,6 +86,9 @@ def start_team(session, files, config_dir, loss):
     for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
         params = {**files, 'task': 'navigation' if robot == LEADER else 'none',
                   'team_task': 'navigation', 'loss_probability': loss, 'seed': 100 + index, 'search_time': 3.0}
+        if robot == LEADER:  # the team as a parameter, no capability file (as on a machine without it)
+            params.pop('capability_file')
+            params['capabilities'] = open(files['capability_file']).read()
         processes[robot] = session.start(agent_spec(robot, params))
     return scenario, processes
 
@@ -139,7 +142,11 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
 def test_bad_parameters_and_files_stop_the_agent_with_a_message(session, files, tmp_path):
     bad = tmp_path / 'caps.yaml'
     bad.write_text('robot_types: {t: {sensors: [{name: gps, provides: [F_Q(local)]}]}}\nrobots: {robot_blind: t}\n')
+    inline = {name: value for name, value in files.items() if name != 'capability_file'}
     cases = [('robot_blind', {**files, 'capability_file': str(bad)}, 'parameter capability_file:'),
+             ('robot_blind', {**inline, 'capabilities': bad.read_text()}, 'parameter capabilities: robot_types.t'),
+             ('robot_blind', {**files, 'capabilities': bad.read_text()},
+              'parameter capability_file / capabilities: give exactly one of them (got both)'),
              ('robot_nobody', files, "robot 'robot_nobody' is not in the capability file's robots"),
              (LEADER, {**files, 'task': 'teleport'}, "parameter task: unknown task 'teleport'"),
              (HELPER, files, "parameter team_task: required when task is 'none'"),

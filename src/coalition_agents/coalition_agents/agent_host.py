@@ -22,16 +22,18 @@ cycle instead of every agent's reasoning.
 
 Each hosted agent is a :class:`~.schema_agent_node.SchemaAgentNode` named ``schema_agent`` in
 its robot's namespace under the host's (``/<robot>/schema_agent`` for a host in ``/``), built
-with its own arguments (no subclass per agent): ``--params-file agent_parameters``, the host's
-remapping rules (e.g. ``/clock``; not its name or namespace), ``use_sim_time`` as the host's and
-``team_namespace`` when the host's is set.
+with its own arguments (no subclass per agent): the host's own ``--params-file`` arguments (so
+the agents' parameters come with the host's: ``/**`` entries for every agent,
+``/**/<robot>/schema_agent`` entries per agent, :func:`~.core.sim_scenarios.agent_parameter_file`;
+an agent ignores the host's parameters and the host the agents'), then ``agent_parameters`` if
+set, the host's remapping rules (e.g. ``/clock``; not its name or namespace), ``use_sim_time`` as
+the host's and ``team_namespace`` when the host's is set. The host's ``-p`` values stay its own.
 
 Parameters (all read-only: they shape the process at start-up):
 
 * ``robots`` (string array, required): the robots to host.
-* ``agent_parameters`` (path, required): a ROS 2 parameter file for the hosted nodes, read by
-  rcl as a ``--params-file`` of each node: ``/**`` entries for every agent,
-  ``/**/<robot>/schema_agent`` entries per agent (:func:`~.core.sim_scenarios.agent_parameter_file`).
+* ``agent_parameters`` (path, optional): one more ROS 2 parameter file for the hosted nodes only,
+  after the host's own parameter files (a later file's value wins).
 * ``team_namespace`` (default '': the host's namespace): where the channel lives.
 * ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel`` and the hosted
   robots' inboxes ``<team>/coalition/channel/<robot>`` and wait up to this long for a subscriber
@@ -95,6 +97,23 @@ def forwarded_remappings(argv: list[str]) -> list[str]:
     return forwarded
 
 
+def forwarded_parameter_files(argv: list[str]) -> list[str]:
+    """The ``--params-file`` arguments of the process's ROS arguments, as ``['--params-file', path, ...]``
+    in their order: the hosted agents read them too, so their parameters need no file of their own."""
+    forwarded, ros_args, index = [], False, 0
+    while index < len(argv):
+        token = argv[index]
+        if token == '--ros-args':
+            ros_args = True
+        elif token == '--':
+            ros_args = False
+        elif ros_args and token == '--params-file' and index + 1 < len(argv):
+            forwarded += ['--params-file', argv[index + 1]]
+            index += 1
+        index += 1
+    return forwarded
+
+
 def _robots_problem(robots: list[str]) -> str | None:
     for robot in robots:
         problem = check_robot_name(robot)
@@ -106,7 +125,7 @@ def _robots_problem(robots: list[str]) -> str | None:
 
 
 def _file_problem(path: str) -> str | None:
-    return None if Path(path).is_file() else f'no such file {path!r}'
+    return None if not path or Path(path).is_file() else f'no such file {path!r}'
 
 
 class AgentHost(Node):
@@ -117,8 +136,9 @@ class AgentHost(Node):
         declare = self.params.declare
         self.robots = declare('robots', [''], 'robots whose schema_agent this process hosts (node '
                               '<host namespace>/<robot>/schema_agent each)', required=True, check=_robots_problem)
-        self.parameter_file = declare('agent_parameters', '', 'ROS 2 parameter file of the hosted schema_agent nodes',
-                                      required=True, check=_file_problem)
+        self.parameter_file = declare('agent_parameters', '', "optional: one more ROS 2 parameter file for the hosted "
+                                      "schema_agent nodes only, read after the host's own parameter files (which "
+                                      "the agents read too); '' = none", check=_file_problem)
         self.linger = declare('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done',
                               low=0.0, high=3600.0)
         self.wait_for_recorder = declare('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent '
@@ -162,7 +182,10 @@ class AgentHost(Node):
 
     def agent_arguments(self) -> tuple[list[str], list[Parameter]]:
         """(cli_args, parameter_overrides) of every hosted agent (see the module docstring)."""
-        cli_args = ['--ros-args', '--params-file', self.parameter_file, *forwarded_remappings(self.argv)]
+        files = forwarded_parameter_files(self.argv)
+        if self.parameter_file:
+            files += ['--params-file', self.parameter_file]
+        cli_args = ['--ros-args', *files, *forwarded_remappings(self.argv)]
         overrides = [Parameter('use_sim_time', value=bool(self.get_parameter('use_sim_time').value))]
         if self.get_parameter('team_namespace').value:
             overrides.append(Parameter('team_namespace', value=self.names.team_namespace))

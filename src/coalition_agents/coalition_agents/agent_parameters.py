@@ -16,7 +16,7 @@ from typing import Any
 from collab_tools.node_support import ConfigurationError
 from collab_tools.parameters import NodeParameters
 
-from .core.capabilities import load_capability_file
+from .core.capabilities import capability_file_from_text, load_capability_file
 from .core.errors import CoalitionError
 from .core.link_model import PRESETS, LinkModel
 from .core.reliable_channel import RetryPolicy
@@ -24,6 +24,9 @@ from .core.schemas import load_costs, load_library
 from .core.tasks import load_tasks
 
 FILES = ('capability_file', 'schemas_file', 'costs_file', 'tasks_file')
+#: The two ways of giving the team's capabilities: a file (tracked config) or the document itself
+#: (a team generated for one run reaches agents on any machine without a file). Exactly one.
+CAPABILITY_SOURCES = ('capability_file', 'capabilities')
 #: Parameters a running agent applies when they are set (each has an applier in the node).
 DYNAMIC = ('max_speed', 'goal_tolerance', 'stream_rate', 'tick_period')
 
@@ -35,10 +38,17 @@ def _file_check(value: str) -> str | None:
     return None if Path(value).is_file() else f'no such file {value}'
 
 
+def _optional_file_check(value: str) -> str | None:
+    return _file_check(value) if value else None
+
+
 #: name -> (default, description, constraints for NodeParameters.declare)
 PARAMETERS: dict[str, tuple[Any, str, dict]] = {
-    'capability_file': ('', 'team capability YAML (config/coalitions/capabilities/*.yaml)',
-                        {'required': True, 'check': _file_check}),
+    'capability_file': ('', 'team capability YAML file (config/coalitions/capabilities/*.yaml); '
+                            'exactly one of capability_file and capabilities', {'check': _optional_file_check}),
+    'capabilities': ('', 'the team capability document itself, as YAML text (the format of a capability file), '
+                         'for a team that exists in no file on this machine; exactly one of capability_file and '
+                         'capabilities', {}),
     'schemas_file': ('', 'schema library YAML (config/coalitions/schemas.yaml)',
                      {'required': True, 'check': _file_check}),
     'costs_file': ('', 'schema costs YAML (config/coalitions/costs.yaml)', {'required': True, 'check': _file_check}),
@@ -101,20 +111,33 @@ def declare_agent_parameters(params: NodeParameters, appliers: Mapping[str, Call
     return values
 
 
+def capability_source(values: Mapping[str, Any]) -> str:
+    """The parameter that gives the team's capabilities: capability_file or capabilities (exactly one)."""
+    given = [name for name in CAPABILITY_SOURCES if values[name]]
+    if len(given) != 1:
+        raise ConfigurationError('parameter capability_file / capabilities: give exactly one of them (got '
+                                 + ('both' if given else 'neither') + ')')
+    return given[0]
+
+
 def load_files(values: Mapping[str, Any]):
-    """(library, costs, tasks, capability file) of the file parameters; a problem names its parameter."""
+    """(library, costs, tasks, capability file) of the file parameters and the ``capabilities`` text;
+    a problem names its parameter."""
+    source = capability_source(values)
     try:
         library = load_library(values['schemas_file'])
     except (CoalitionError, ValueError, OSError) as exc:
         raise ConfigurationError(f'parameter schemas_file: {exc}') from None
     loaded = {}
+    capabilities = ((source, lambda f: load_capability_file(f, library)) if source == 'capability_file'
+                    else (source, lambda text: capability_file_from_text(text, library)))
     for name, loader in (('costs_file', load_costs), ('tasks_file', lambda f: load_tasks(f, library)),
-                         ('capability_file', lambda f: load_capability_file(f, library))):
+                         capabilities):
         try:
             loaded[name] = loader(values[name])
         except (CoalitionError, ValueError, OSError) as exc:
             raise ConfigurationError(f'parameter {name}: {exc}') from None
-    return library, loaded['costs_file'], loaded['tasks_file'], loaded['capability_file']
+    return library, loaded['costs_file'], loaded['tasks_file'], loaded[source]
 
 
 def task_named(tasks: Mapping, name: str, parameter: str):

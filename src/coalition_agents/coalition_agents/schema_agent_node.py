@@ -100,7 +100,9 @@ from rclpy.task import Future
 from sensor_msgs.msg import LaserScan
 
 from .agent_channel import CHANNEL_TOPIC, AgentChannel
-from .agent_parameters import FILES, declare_agent_parameters, link_model, load_files, retry_policy, task_named
+from .agent_parameters import (
+    FILES, capability_source, declare_agent_parameters, link_model, load_files, retry_policy, task_named,
+)
 from .core.agent import FeasibleCoalition, SchemaAgent
 from .core.channel_codec import ChannelCodec, ChannelMessage, MessageKind, offer_message, request_message
 from .core.coalition_execution import CoalitionExecution
@@ -148,14 +150,16 @@ class SchemaAgentNode(Node):
             'stream_rate': self._set_stream_rate, 'tick_period': self._set_tick_period})
         library, costs, tasks, capability_file = load_files(values)
         files = {name: Path(values[name]) for name in FILES}
+        source = capability_source(values)
+        team_of = "the capability file's" if source == 'capability_file' else "parameter capabilities'"
         team = dict(capability_file.robots)
         if self.robot not in team:
-            raise ConfigurationError(f"namespace {self.get_namespace()}: robot '{self.robot}' is not in the "
-                                     f"capability file's robots ({', '.join(team) or 'none'})")
+            raise ConfigurationError(f"namespace {self.get_namespace()}: robot '{self.robot}' is not in "
+                                     f"{team_of} robots ({', '.join(team) or 'none'})")
         for sensor in team[self.robot].sensors:
             if sensor.sensor not in BRIDGE_SENSORS:
                 raise ConfigurationError(
-                    f"parameter capability_file: robot {self.robot}'s sensor '{sensor.sensor}' is not a bridge sensor "
+                    f"parameter {source}: robot {self.robot}'s sensor '{sensor.sensor}' is not a bridge sensor "
                     f"(allowed: {', '.join(BRIDGE_SENSORS)})")
         task_name = values['task']
         task = None if task_name == 'none' else task_named(tasks, task_name, 'task')
@@ -231,7 +235,7 @@ class SchemaAgentNode(Node):
         self.stream_timer = self.create_timer(self.stream_period, self._stream)
         unknown = [name for name in self.exit_after if name not in team]
         if unknown:
-            raise ConfigurationError(f"parameter exit_after: {unknown[0]!r} is not in the capability file's robots "
+            raise ConfigurationError(f"parameter exit_after: {unknown[0]!r} is not in {team_of} robots "
                                      f"({', '.join(team)})")
         self.others_done: set[str] = set()
         for name in self.exit_after:

@@ -3,9 +3,12 @@ results computed from the bags (``scripts/experiment coalition-fig9``, ``coaliti
 the coalition demo).
 
 Every run is ``config/experiments/coalition_agents.yaml`` (bridge + ``schema_agent_host`` +
-recorder) with files generated into its run directory by :mod:`.core.sim_scenarios`:
-``scenario.yaml`` (bridge), ``team.yaml`` (capabilities with the bridge's sensor names) and
-``agents.yaml`` (the agents' parameters). The recorder keeps ``/coalition/channel``, every
+recorder) with what :mod:`.core.sim_scenarios` generates: ``scenario.yaml`` in the run directory
+(read by the bridge, on the orchestrator's machine); the team (capabilities with the bridge's
+sensor names, the ``capabilities`` parameter) and the agents' parameters travel in the generated
+experiment as the agent processes' parameters (a whole parameter-file mapping), so agent processes
+on another machine read no file of the run directory (``team.yaml`` there is a record for the
+reader only). The recorder keeps ``/coalition/channel``, every
 robot's inbox ``/coalition/channel/<robot>`` and every ``/<robot>/coalition`` status; :func:`read_coalition_bag` turns them into a :class:`CoalitionRun`.
 
 What is measured (from the agents' own stamps: a status is stamped when it is published, a
@@ -42,7 +45,7 @@ from .core.channel_codec import MessageKind
 from .core.errors import ConfigError
 from .core.sim_scenarios import (
     COLUMN_TYPES, Placement, SensorSettings, agent_parameter_file, bridge_scenario, capability_file,
-    column_placements, column_sees_only_the_robot_ahead, placements_from_poses,
+    capability_text, column_placements, column_sees_only_the_robot_ahead, placements_from_poses,
 )
 from .core.validation import Section, as_mapping, as_number, load_config_file
 
@@ -312,8 +315,9 @@ def host_groups(robots: Sequence[str], leaders: Sequence[str], processes: int) -
 def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence[Placement],
                 types: Mapping[str, Mapping], sensors: SensorSettings, setup: AgentSetup,
                 sensor_names: Mapping[str, str] | None = None, log: Log | None = None):
-    """Generate the run's files and run config/experiments/coalition_agents.yaml; returns the
-    ExperimentResult (its ``bag`` is the recorded run)."""
+    """Generate the run (the bridge scenario file, the agents' parameters inline) and run
+    config/experiments/coalition_agents.yaml; returns the ExperimentResult (its ``bag`` is the
+    recorded run)."""
     from collab_tools.orchestration.experiment import load_experiment, run_experiment
     run_dir, config_dir = Path(run_dir).resolve(), Path(config_dir).resolve()
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -325,7 +329,8 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
     unknown = [r for r in setup.leaders if r not in robots]
     if unknown:
         raise ConfigError(f'leaders: unknown robot {unknown[0]!r} (robots: {", ".join(robots)})')
-    common = {'capability_file': str(run_dir / 'team.yaml'), 'schemas_file': str(coalitions / 'schemas.yaml'),
+    # The team inline (no node reads a generated file); the other files are tracked config.
+    common = {'capabilities': capability_text(team), 'schemas_file': str(coalitions / 'schemas.yaml'),
               'costs_file': str(coalitions / 'costs.yaml'), 'tasks_file': str(coalitions / 'tasks.yaml'),
               'task': 'none', 'team_task': setup.task, 'link_preset': setup.link_preset,
               'loss_probability': float(setup.loss_probability), 'search_time': float(setup.search_time_s),
@@ -335,9 +340,12 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                          **({'task': setup.task, 'exit_when_done': True} if robot in setup.leaders else {})}
                  for index, robot in enumerate(robots)}
     (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
-    (run_dir / 'team.yaml').write_text(yaml.safe_dump(team, sort_keys=False))
-    (run_dir / 'agents.yaml').write_text(yaml.safe_dump(agent_parameter_file(common, per_robot, AGENT_NODE),
-                                                        sort_keys=False))
+    (run_dir / 'team.yaml').write_text('# a record of the run\'s team; the agents get it as their capabilities '
+                                       'parameter\n' + yaml.safe_dump(team, sort_keys=False))
+
+    def agent_parameters(group: Sequence[str]) -> dict:
+        """The parameter-file mapping of the agents of ``group`` (common + theirs), given to their process."""
+        return agent_parameter_file(common, {robot: per_robot[robot] for robot in group}, AGENT_NODE)
     experiment = load_experiment(config_dir / 'experiments' / EXPERIMENT_FILE)
     experiment['timeout'] = setup.timeout_s
     experiment['record']['topics'] = (list(experiment['record']['topics']) + [f'{CHANNEL}/{r}' for r in robots]
@@ -353,11 +361,12 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                 nodes.append({**node, 'use_sim_time': setup.use_sim_time,
                               **({} if index == 0 else {'name': f'{node["executable"]}_{index + 1}', 'required': False}),
                               **({'host': host} if host else {}),
-                              'parameters': list(node.get('parameters', [])) + [{'robots': group}]})
-        else:  # one schema_agent process per robot, in its namespace (the parameter file is keyed by it)
+                              'parameters': list(node.get('parameters', [])) + [{'robots': group},
+                                                                                agent_parameters(group)]})
+        else:  # one schema_agent process per robot, in its namespace (the parameter mapping is keyed by it)
             nodes.extend({'package': 'coalition_agents', 'executable': 'schema_agent', 'name': AGENT_NODE,
                           'namespace': f'/{robot}', 'use_sim_time': setup.use_sim_time,
-                          'required': robot in setup.leaders, 'parameters': [str(run_dir / 'agents.yaml')]}
+                          'required': robot in setup.leaders, 'parameters': [agent_parameters([robot])]}
                          for robot in robots)
     experiment['nodes'] = nodes
     for field_ in ('discovery', 'hosts'):

@@ -4,7 +4,8 @@ from pathlib import Path
 import pytest
 
 from coalition_agents.core import (
-    ConfigError, Costs, SchemaKind, capability_file_from_dict, costs_from_dict, library_from_dict,
+    ConfigError, Costs, SchemaKind, capability_file_from_dict, capability_file_from_text, costs_from_dict,
+    library_from_dict,
     load_capability_file, tasks_from_dict,
 )
 from coalition_agents.core.schemas import parse_conversion
@@ -129,6 +130,29 @@ def test_capability_file_errors_name_the_file(library, tmp_path: Path):
         load_capability_file(path, library)
     with pytest.raises(ConfigError, match='cannot read file'):
         load_capability_file(tmp_path / 'missing.yaml', library)
+
+
+def test_capability_document_as_text_is_the_file(library, config_dir):
+    """A capability document given as text (the agents' capabilities parameter) parses as the file does."""
+    path = config_dir / 'capabilities' / 'box_pushing_team.yaml'
+    from_text = capability_file_from_text(path.read_text(), library)
+    assert from_text == load_capability_file(path, library)
+    assert from_text.robots['pusher_g1'].sensor_names  # not vacuous: a real team
+    # Flow style on one line (what the experiments generate) too.
+    assert capability_file_from_text("{robot_types: {scout: {sensors: [{name: gps, provides: ['F_G(local)']}]}}, "
+                                     "robots: {robot_1: scout}}", library).robots['robot_1'].sensor_names == ('gps',)
+
+
+@pytest.mark.parametrize('text, message', [
+    ('robot_types: [unclosed', 'invalid YAML'),
+    ('', 'must be a mapping (got null)'),
+    ('robot_types: {scout: {sensors: [{name: cam, provides: [F_Q(local)]}]}}', 'robot_types.scout.sensors[0].provides[0]'),
+    ('robot_types: {scout: {}}\nrobots: {robot_1: sout}', "robots.robot_1: unknown robot type 'sout'"),
+])
+def test_capability_text_errors_name_the_field(library, text, message):
+    with pytest.raises(ConfigError) as caught:
+        capability_file_from_text(text, library)
+    assert message in str(caught.value)
 
 
 def test_robot_specific_perceptual_schema(library):

@@ -2,8 +2,9 @@
 
 import pytest
 
-from coalition_agents.agent_host import forwarded_remappings
-from coalition_agents.agent_parameters import DYNAMIC, PARAMETERS, link_model, retry_policy
+from collab_tools.node_support import ConfigurationError
+from coalition_agents.agent_host import forwarded_parameter_files, forwarded_remappings
+from coalition_agents.agent_parameters import DYNAMIC, PARAMETERS, link_model, load_files, retry_policy
 
 
 def values(**changes):
@@ -17,6 +18,45 @@ def test_the_host_forwards_its_remappings_but_not_its_name_or_namespace():
     assert forwarded_remappings(argv) == ['-r', '/clock:=/sim1/clock', '-r', 'coalition/channel:=chan',
                                           '-r', 'schema_agent:scan:=scan_front']
     assert forwarded_remappings(['schema_agent_host']) == []
+
+
+def test_the_host_forwards_its_parameter_files_to_its_agents():
+    argv = ['schema_agent_host', '--ros-args', '-r', '__ns:=/sim1', '--params-file', '/run/params/host.0.yaml',
+            '-p', 'robots:=[a]', '--params-file', '/run/params/host.1.yaml', '--', '--params-file', 'not_ros.yaml']
+    assert forwarded_parameter_files(argv) == ['--params-file', '/run/params/host.0.yaml',
+                                               '--params-file', '/run/params/host.1.yaml']
+    assert forwarded_parameter_files(['schema_agent_host', '--params-file', 'x.yaml']) == []  # not a ROS argument
+
+
+def file_values(config_dir, **changes):
+    return values(schemas_file=str(config_dir / 'schemas.yaml'), costs_file=str(config_dir / 'costs.yaml'),
+                  tasks_file=str(config_dir / 'tasks.yaml'), **changes)
+
+
+def test_capabilities_come_from_a_file_or_from_the_capabilities_parameter(config_dir):
+    path = config_dir / 'capabilities' / 'coalition_three_robots.yaml'
+    *_, from_file = load_files(file_values(config_dir, capability_file=str(path)))
+    *_, inline = load_files(file_values(config_dir, capabilities=path.read_text()))
+    assert inline == from_file and 'robot_blind' in inline.robots
+    assert PARAMETERS['capability_file'][0] == PARAMETERS['capabilities'][0] == ''  # neither is required alone
+
+
+@pytest.mark.parametrize('changes, message', [
+    ({}, 'parameter capability_file / capabilities: give exactly one of them (got neither)'),
+    ({'capability_file': 'CAPS', 'capabilities': 'robot_types: {t: {}}'},
+     'parameter capability_file / capabilities: give exactly one of them (got both)'),
+    ({'capabilities': 'robot_types: [unclosed'}, 'parameter capabilities: invalid YAML'),
+    ({'capabilities': 'robot_types: {t: {sensors: [{name: gps, provides: [F_Q(local)]}]}}'},
+     'parameter capabilities: robot_types.t.sensors[0].provides[0]'),
+    ({'capability_file': 'MISSING'}, 'parameter capability_file: '),
+])
+def test_capability_errors_name_the_parameter(config_dir, tmp_path, changes, message):
+    caps = config_dir / 'capabilities' / 'coalition_three_robots.yaml'
+    changes = {name: {'CAPS': str(caps), 'MISSING': str(tmp_path / 'missing.yaml')}.get(value, value)
+               for name, value in changes.items()}
+    with pytest.raises(ConfigurationError) as caught:
+        load_files(file_values(config_dir, **changes))
+    assert str(caught.value).startswith(message), caught.value
 
 
 def test_every_dynamic_parameter_is_declared_and_documented():
@@ -50,3 +90,17 @@ def test_boxpush_agents_are_the_robots_of_their_namespaces(config_dir):
     assert agents['pusher_g1']['exit_after'] == ['pusher_r2'] and agents['pusher_g1']['robot'] == 'pusher_g1'
     with pytest.raises(ValueError, match=r'nodes\[0\] \(schema_agent\): needs namespace'):
         agent_nodes({'nodes': [{'package': 'coalition_agents', 'executable': 'schema_agent', 'parameters': [{}]}]})
+
+
+def test_boxpush_agents_read_only_tracked_config(config_dir):
+    """No agent of the box-pushing experiment reads a generated file: every path it is given is
+    under the repository's config/ (the agents can run on any machine with a checkout)."""
+    import yaml
+    experiment = yaml.safe_load((config_dir.parent / 'experiments' / 'coalition_boxpush.yaml').read_text())
+    paths = []
+    for node in experiment['nodes']:
+        for entry in node.get('parameters', []):
+            for value in (entry.values() if isinstance(entry, dict) else [entry]):
+                if isinstance(value, str) and ('/' in value or value.endswith('.yaml')):
+                    paths.append(value)
+    assert paths and all(p.startswith('{config}/') for p in paths), paths

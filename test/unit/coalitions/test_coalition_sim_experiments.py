@@ -11,7 +11,8 @@ import yaml
 from coalition_agents.core import load_capability_file, load_library
 from coalition_agents.core.errors import ConfigError
 from coalition_agents.core.sim_scenarios import (
-    COLUMN_TYPES, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, column_placements,
+    COLUMN_TYPES, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, capability_text,
+    column_placements,
     column_sees_only_the_robot_ahead, placements_from_poses,
 )
 
@@ -85,6 +86,60 @@ def test_agent_parameter_file_is_keyed_by_the_node_in_its_robot_namespace():
     # /**/<robot>/schema_agent: also when the robot's namespace sits under a session's (/sim1/robot_2)
     assert data == {'/**': {'ros__parameters': {'task': 'none'}},
                     '/**/robot_2/schema_agent': {'ros__parameters': {'task': 'navigation'}}}
+
+
+def test_capability_text_is_the_team_in_one_line(library):
+    from coalition_agents.core import capability_file_from_text
+    team = capability_file(column_placements(3), COLUMN_TYPES)
+    text = capability_text(team)
+    assert '\n' not in text and yaml.safe_load(text) == team
+    assert capability_file_from_text(text, library).robots['robot_1'].sensor_names == ('fiducial', 'laser', 'gps')
+
+
+def run_dir_paths(value, run_dir: Path) -> list[str]:
+    """Every string in ``value`` (nested) that names something in the run directory."""
+    if isinstance(value, dict):
+        return [p for item in value.values() for p in run_dir_paths(item, run_dir)]
+    if isinstance(value, list):
+        return [p for item in value for p in run_dir_paths(item, run_dir)]
+    return [value] if isinstance(value, str) and ('{run_dir}' in value or str(run_dir) in value) else []
+
+
+@pytest.mark.parametrize('hosted, processes', [(True, 2), (False, 1)])
+def test_run_session_gives_the_agents_their_parameters_not_files(monkeypatch, tmp_path, config_dir, library,
+                                                                 hosted, processes):
+    """The generated experiment: only the bridge reads a file of the run directory (its scenario);
+    every agent process gets the team inline and its robots' parameters as a parameter-file mapping."""
+    from collab_tools.orchestration import experiment as orchestration
+    from coalition_agents.core import capability_file_from_text
+    from coalition_agents.sim_experiments import AgentSetup, run_session
+    monkeypatch.setattr(orchestration, 'run_experiment', lambda path, *args, **kwargs: path)
+    placements = column_placements(3)
+    setup = AgentSetup(leaders=('robot_3',), hosted=hosted, host_processes=processes)
+    generated = run_session(tmp_path, config_dir.parent, 'column', placements, COLUMN_TYPES, SensorSettings(60.0, 1.5),
+                            setup)
+    experiment = yaml.safe_load(Path(generated).read_text())
+    agents = {}
+    for node in experiment['nodes']:
+        paths = run_dir_paths(node.get('parameters', []), tmp_path)
+        if node['executable'] == 'pybullet_bridge':
+            assert paths == ['{run_dir}/scenario.yaml']
+            continue
+        assert paths == [], (node['executable'], paths)
+        mappings = [e for e in node['parameters'] if isinstance(e, dict) and '/**' in e]
+        assert len(mappings) == 1
+        common = mappings[0]['/**']['ros__parameters']
+        assert 'capability_file' not in common
+        team = capability_file_from_text(common['capabilities'], library)
+        assert sorted(team.robots) == ['robot_1', 'robot_2', 'robot_3']
+        for key, entry in mappings[0].items():
+            if key != '/**':
+                agents[key] = entry['ros__parameters']
+    # Every robot's own entry exactly once (a host gets its group's; a lone agent its own).
+    assert sorted(agents) == [f'/**/robot_{k}/schema_agent' for k in (1, 2, 3)]
+    assert agents['/**/robot_3/schema_agent']['task'] == 'navigation'
+    assert sum(n['executable'] in ('schema_agent_host', 'schema_agent') for n in experiment['nodes']) == \
+        (processes if hosted else 3)
 
 
 def test_column_config_errors_name_the_field(tmp_path):

@@ -34,7 +34,7 @@ Table I RPSs                                 config/coalitions/schemas.yaml, sch
 ES, EPS, PS, RPS, MS, CS; costs (Sec. V-A)   schemas (SchemaKind, SensorSchema, Conversion, Costs,
                                              load_costs); config/coalitions/costs.yaml
 A robot's capabilities                       capabilities (RobotCapabilities,
-                                             load_capability_file)
+                                             load_capability_file, capability_file_from_text)
 Tasks; Table II; Fig. 4/10; Fig. 8           tasks (Task, load_tasks); config/coalitions/tasks.yaml
 Sec. IV-C solution space, and-or tree, tOR   solution_space (RequirementNode = tOR, SchemaNode)
 Referent instantiation constraint (fn. 6)    schemas (Conversion.inputs_for), information
@@ -105,7 +105,7 @@ from .schemas import (
     load_costs, load_library,
 )
 from .capabilities import (
-    CapabilityFile, RobotCapabilities, capability_file_from_dict, load_capability_file,
+    CapabilityFile, RobotCapabilities, capability_file_from_dict, capability_file_from_text, load_capability_file,
 )
 from .tasks import Task, load_tasks, tasks_from_dict
 from .solution_space import (
@@ -130,7 +130,8 @@ __all__ = [
     'RobotReasoner', 'SchemaKind', 'SchemaLibrary', 'SearchError', 'SearchPlan', 'SearchStats', 'SensingModel',
     'SensorSchema', 'SolutionSpace', 'SolutionSpaceCache', 'SolutionSpaceGenerator', 'SolutionStep',
     'StaticSensing', 'Task', 'Variable', 'addressees', 'canonical_instance', 'capability_file_from_dict',
-    'cheapest_per_members', 'coalition_cost', 'coalition_members', 'compare_generality', 'costs_from_dict',
+    'capability_file_from_text', 'cheapest_per_members', 'coalition_cost', 'coalition_members',
+    'compare_generality', 'costs_from_dict',
     'external_communication_allows', 'generality_imposition_allows', 'has_same_generality',
     'is_more_general', 'library_from_dict', 'load_capability_file', 'load_costs', 'load_library',
     'load_tasks', 'localness_allows', 'parse_instance', 'request_variants', 'tasks_from_dict',

@@ -18,6 +18,8 @@ Capability file format (every field validated, unknown keys are errors)::
       robot_1: scout              # robot names must not look like variables (not 'R1')
 
 Labels use the library's information types and objects (``config/coalitions/schemas.yaml``).
+The same document may come as text (:func:`capability_file_from_text`: a node's ``capabilities``
+parameter), so a team generated for one run reaches its agents without a file.
 """
 from __future__ import annotations
 
@@ -31,7 +33,7 @@ from .schemas import (
     Conversion, SchemaKind, SchemaLibrary, SensorSchema, check_listed_names, conversions_from_list,
     parse_field_instance,
 )
-from .validation import Section, load_config_file
+from .validation import Section, load_config_file, parse_yaml_text
 
 #: The sensor name of task priors (dummy sensors of a priori information).
 PRIOR_SENSOR = 'prior'
@@ -124,3 +126,9 @@ def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '')
 def load_capability_file(path: str | Path, library: SchemaLibrary) -> CapabilityFile:
     """Read and validate a capability file (errors name the file and the field)."""
     return load_config_file(path, lambda data: capability_file_from_dict(data, library, ''))
+
+
+def capability_file_from_text(text: str, library: SchemaLibrary) -> CapabilityFile:
+    """Parse and validate a capability document given as YAML text (errors name the field; the
+    caller names the text's origin, e.g. the parameter)."""
+    return capability_file_from_dict(parse_yaml_text(text), library, '')

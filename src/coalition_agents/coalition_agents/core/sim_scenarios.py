@@ -15,7 +15,10 @@ file and the hosted agents' parameter file (used by ``coalition_agents.sim_exper
 * :func:`capability_file` -- the team capability file (``config/coalitions/capabilities`` format)
   with the bridge's sensor names (``sensor_names`` renames, e.g. the paper's ``localization`` to
   the bridge's ``gps``).
-* :func:`agent_parameter_file` -- the ROS 2 parameter file of the hosted schema_agent nodes.
+* :func:`capability_text` -- that file as one line of YAML text: the agents' ``capabilities``
+  parameter, so the generated team reaches agents on any machine without a file.
+* :func:`agent_parameter_file` -- the ROS 2 parameter file (content) of the schema_agent nodes: the
+  experiment gives it to the agent processes as their parameters, no node reads a generated file.
 
 Choices (the paper gives no geometry for Fig. 9): 1 m spacing, fiducial FOV 60 deg and range
 1.5 m; robots of the Table IV types (type 2 in front, type 1 behind).
@@ -26,6 +29,8 @@ import colorsys
 import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
+
+import yaml
 
 from .errors import ConfigError
 
@@ -167,6 +172,12 @@ def capability_file(placements: Sequence[Placement], types: Mapping[str, Mapping
     return {'robot_types': robot_types, 'robots': {p.robot: p.robot_type for p in placements}}
 
 
+def capability_text(team: Mapping) -> str:
+    """A capability document (:func:`capability_file`) as one line of flow-style YAML: the value of
+    the agents' ``capabilities`` parameter (a ROS parameter cannot hold lists of mappings)."""
+    return yaml.safe_dump(team, default_flow_style=True, sort_keys=False, width=math.inf).strip()
+
+
 def agent_parameter_file(common: Mapping[str, object], per_robot: Mapping[str, Mapping[str, object]],
                          node_name: str = 'schema_agent') -> dict:
     """ROS 2 parameter file for the schema_agent nodes: ``common`` for all, then per robot, keyed
@@ -179,4 +190,4 @@ def agent_parameter_file(common: Mapping[str, object], per_robot: Mapping[str, M
 
 
 __all__ = ['BRIDGE_SENSORS', 'COLUMN_TYPES', 'Placement', 'SensorSettings', 'agent_parameter_file', 'bridge_scenario',
-           'capability_file', 'column_placements', 'column_sees_only_the_robot_ahead', 'placements_from_poses']
+           'capability_file', 'capability_text', 'column_placements', 'column_sees_only_the_robot_ahead', 'placements_from_poses']

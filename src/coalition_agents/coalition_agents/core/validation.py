@@ -50,6 +50,17 @@ def load_yaml_file(path: str | Path) -> Any:
         raise ConfigError(f'{path}: invalid YAML ({exc})') from None
 
 
+def parse_yaml_text(text: str) -> Any:
+    """Parse a YAML document given as text (e.g. a string parameter); a syntax error becomes a
+    :class:`ConfigError` (the caller names where the text came from)."""
+    if not isinstance(text, str):
+        raise ConfigError(f'must be YAML text (got {describe_type(text)})')
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f'invalid YAML ({exc})') from None
+
+
 def load_config_file(path: str | Path, read: Callable[[Any], _Loaded]) -> _Loaded:
     """Parse a YAML file with ``read`` (data -> object); every error names the file first."""
     try:
