@@ -94,3 +94,11 @@ def test_parameter_file_content_is_written_as_it_is(tmp_path):
     files = [command[i + 1] for i, arg in enumerate(command) if arg == '--params-file']
     assert yaml.safe_load(open(files[0])) == per_node
     assert yaml.safe_load(open(files[1])) == {'/**': {'ros__parameters': {'c': 3}}}
+
+
+def test_a_local_session_after_a_discovery_server_session_in_one_process_is_refused(tmp_path, monkeypatch):
+    from collab_tools.orchestration import session as session_module
+    monkeypatch.setattr(session_module, '_OBSERVED_WITH_SERVER', True)
+    with Session('t', run_dir=tmp_path, log=None) as session:
+        with pytest.raises(RuntimeError, match='its own process'):
+            session.observer

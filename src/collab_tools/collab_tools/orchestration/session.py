@@ -37,6 +37,8 @@ EXIT_USAGE = 2
 EXIT_NODE_FAILED = 3
 EXIT_NOT_DISCOVERED = 4
 
+_OBSERVED_WITH_SERVER = False
+
 #: Absolute names every node of a namespaced session has remapped into the session's namespace.
 GLOBAL_TOPICS = ('/clock', '/tf', '/tf_static')
 
@@ -237,8 +239,17 @@ class Session:
     # --- conditions -----------------------------------------------------------------
     @property
     def observer(self):
+        global _OBSERVED_WITH_SERVER
         if self._observer is None:
             from .observer import GraphObserver  # rclpy only when a condition needs it
+            if self.discovery.servers:
+                _OBSERVED_WITH_SERVER = True
+            elif _OBSERVED_WITH_SERVER:
+                # Seen here: after a participant of this process was a discovery-server client, Fast DDS
+                # participants created later in it discover nothing, whatever the environment says.
+                raise RuntimeError('this process already observed a session under a discovery server; Fast '
+                                   'DDS keeps that process-wide, so this session would discover nothing: run '
+                                   'each discovery-server session in its own process (scripts/orchestrate)')
             # The observer discovers like the nodes do (rcl reads these at init).
             saved = {name: os.environ.get(name) for name in
                      (*self.discovery.environment(), *self.discovery.unset)}
