@@ -222,8 +222,11 @@ def _check_failures(session, ros_node, other, bag):
     assert '/test/mixed: CANNOT RECORD, it carries several types' in text
     assert '2 topic(s) NOT recorded' in text
     info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
-    assert {t['topic_metadata']['name']: t['message_count'] for t in info['topics_with_message_count']} == {
-        '/test/chatter': 1}
+    counts = {t['topic_metadata']['name']: t['message_count'] for t in info['topics_with_message_count']}
+    # The recorder may have seen /test/mixed with one type before the second appeared in its graph:
+    # then the topic is in the bag with what it recorded until then (nothing here), and refused after.
+    assert counts.pop('/test/mixed', 0) == 0
+    assert counts == {'/test/chatter': 1}
     assert info['custom_data']['unrecorded_topics'].startswith('/test/bodies: ')
     assert '/test/mixed: it carries several types' in info['custom_data']['unrecorded_topics']
 

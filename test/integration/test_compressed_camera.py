@@ -225,11 +225,12 @@ def test_compressed_rate_and_jpeg_quality_apply_at_run_time(bridge, ros_node):
 
 def run_case(session, tmp_path, task_file, config_dir, transport):
     """case_8 with both SGCM nodes on `transport`; the rounds' guidance and the final one."""
+    # Subscribed before the nodes start: guidance is not latched, and round 1 must not be missed.
+    guidance = []
+    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
     start_case(session, tmp_path, task_file, config_dir, 'case_8',
                leader_params={'image_transport': transport}, follower_params={'image_transport': transport})
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
-    guidance = []
-    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
     deadline = time.monotonic() + 180.0
     while not guidance:   # the first round: both nodes have long been reading the camera
         assert time.monotonic() < deadline, 'no guidance'
