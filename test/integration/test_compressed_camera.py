@@ -18,6 +18,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 from sgcm_interfaces.msg import Guidance
+from std_srvs.srv import SetBool
 
 from bridge_helpers import bridge_spec, stamp_seconds, step
 from collab_tools.core.image_codec import LABELS_PNG_FORMAT, RGB8_JPEG_FORMAT, decode_labels, decode_rgb
@@ -225,12 +226,18 @@ def test_compressed_rate_and_jpeg_quality_apply_at_run_time(bridge, ros_node):
 
 def run_case(session, tmp_path, task_file, config_dir, transport):
     """case_8 with both SGCM nodes on `transport`; the rounds' guidance and the final one."""
-    # Subscribed before the nodes start: guidance is not latched, and round 1 must not be missed.
+    # Guidance is not latched: the simulation runs only once our subscription has matched the
+    # leader's publisher, so round 1 cannot be missed however slow discovery is.
     guidance = []
-    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
-    start_case(session, tmp_path, task_file, config_dir, 'case_8',
+    subscription = session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
+    start_case(session, tmp_path, task_file, config_dir, 'case_8', start_paused=True,
                leader_params={'image_transport': transport}, follower_params={'image_transport': transport})
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
+    deadline = time.monotonic() + 60.0
+    while subscription.get_publisher_count() == 0:
+        assert time.monotonic() < deadline, 'the leader never published guidance'
+        time.sleep(0.05)
+    assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', SetBool.Request(data=False)).success
     deadline = time.monotonic() + 180.0
     while not guidance:   # the first round: both nodes have long been reading the camera
         assert time.monotonic() < deadline, 'no guidance'
