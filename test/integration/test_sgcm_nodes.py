@@ -15,6 +15,7 @@ import yaml
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from sgcm_interfaces.msg import Guidance, GridState, Move
+from std_srvs.srv import SetBool
 
 from collab_tools.orchestration.node_process import NodeSpec
 from bridge_helpers import bridge_spec, wait_for_subscriber
@@ -56,12 +57,19 @@ def start_case(session, tmp_path, task_file, config_dir, case_name, follower_par
 
 
 def test_leader_and_follower_complete_a_case_through_topics(session, tmp_path, task_file, config_dir):
-    task, case = start_case(session, tmp_path, task_file, config_dir, 'case_8')
+    # Guidance is not latched: the simulation runs only once our subscription has matched the
+    # leader's publisher, so round 1 is never missed however slow discovery is.
+    guidance = []
+    subscription = session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
+    task, case = start_case(session, tmp_path, task_file, config_dir, 'case_8', start_paused=True)
     model = RearrangementModel(task)
     # One node per arm, named in its arm's namespace.
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
-    guidance = []
-    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
+    deadline = time.monotonic() + 60.0
+    while subscription.get_publisher_count() == 0:
+        assert time.monotonic() < deadline, 'the leader never published guidance'
+        time.sleep(0.05)
+    assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', SetBool.Request(data=False)).success
     final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
                                      predicate=lambda m: m.task_complete or bool(m.status), timeout=240)
     assert final.task_complete, final.status
