@@ -18,14 +18,13 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 from sgcm_interfaces.msg import Guidance
-from std_srvs.srv import SetBool
 
 from bridge_helpers import bridge_spec, stamp_seconds, step
 from collab_tools.core.image_codec import LABELS_PNG_FORMAT, RGB8_JPEG_FORMAT, decode_labels, decode_rgb
 from collab_tools.images import image_array
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.orchestration.session import Session
-from test_sgcm_nodes import FOLLOWER_NS, LEADER_NS, start_case
+from test_sgcm_nodes import FOLLOWER_NS, LEADER_NS, resume_once_heard, start_case
 
 NODE = '/pybullet_bridge'
 CAMERA = '/top_camera'
@@ -233,11 +232,7 @@ def run_case(session, tmp_path, task_file, config_dir, transport):
     start_case(session, tmp_path, task_file, config_dir, 'case_8', start_paused=True,
                leader_params={'image_transport': transport}, follower_params={'image_transport': transport})
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
-    deadline = time.monotonic() + 60.0
-    while subscription.get_publisher_count() == 0:
-        assert time.monotonic() < deadline, 'the leader never published guidance'
-        time.sleep(0.05)
-    assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', SetBool.Request(data=False)).success
+    resume_once_heard(session, subscription)
     deadline = time.monotonic() + 180.0
     while not guidance:   # the first round: both nodes have long been reading the camera
         assert time.monotonic() < deadline, 'no guidance'

@@ -56,6 +56,16 @@ def start_case(session, tmp_path, task_file, config_dir, case_name, follower_par
     return task, case
 
 
+def resume_once_heard(session, subscription, timeout=60.0):
+    """Unpause the bridge once `subscription` has matched the leader's guidance publisher (guidance
+    is not latched: a round published before the match would be missed)."""
+    deadline = time.monotonic() + timeout
+    while subscription.get_publisher_count() == 0:
+        assert time.monotonic() < deadline, 'the leader never published guidance'
+        time.sleep(0.05)
+    assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', SetBool.Request(data=False)).success
+
+
 def test_leader_and_follower_complete_a_case_through_topics(session, tmp_path, task_file, config_dir):
     # Guidance is not latched: the simulation runs only once our subscription has matched the
     # leader's publisher, so round 1 is never missed however slow discovery is.
@@ -65,11 +75,7 @@ def test_leader_and_follower_complete_a_case_through_topics(session, tmp_path, t
     model = RearrangementModel(task)
     # One node per arm, named in its arm's namespace.
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
-    deadline = time.monotonic() + 60.0
-    while subscription.get_publisher_count() == 0:
-        assert time.monotonic() < deadline, 'the leader never published guidance'
-        time.sleep(0.05)
-    assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', SetBool.Request(data=False)).success
+    resume_once_heard(session, subscription)
     final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
                                      predicate=lambda m: m.task_complete or bool(m.status), timeout=240)
     assert final.task_complete, final.status
