@@ -17,8 +17,9 @@ from rclpy.node import Node
 from rclpy.task import Future
 
 
-class ConfigurationError(ValueError):
-    """A parameter the node cannot start with; the message names it."""
+from .core.errors import ConfigurationError  # noqa: E402  (re-exported: nodes raise it)
+
+__all__ = ['ConfigurationError', 'declare', 'run', 'stop_signal_handling']
 
 
 def declare(node: Node, name: str, default, description: str):

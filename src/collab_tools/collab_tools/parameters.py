@@ -1,6 +1,12 @@
 """Declared ROS parameters that are either applied or refused, never silently ignored.
 
-Every node declares its parameters through :class:`NodeParameters`::
+A node's parameters are written once, as a :class:`~collab_tools.core.settings.SettingsSchema` in
+its package's core (unit tested without ROS), and declared here::
+
+    self.params = NodeParameters(self)
+    values = self.params.declare_schema(BRIDGE_SETTINGS, on_change={'real_time_factor': self._set_rate})
+
+or one at a time::
 
     self.params = NodeParameters(self)
     self.params.declare('real_time_factor', 1.0, 'simulated s per wall s; 0 = as fast as possible',
@@ -25,7 +31,7 @@ Every node declares its parameters through :class:`NodeParameters`::
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, \
@@ -33,105 +39,27 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from .core.settings import KIND_WORDS, Setting, SettingsSchema, echo
 from .node_support import ConfigurationError
 
-#: How far an error message echoes a value (a huge value must not flood a log or a response).
-ECHO_LIMIT = 80
-
-
-def echo(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= ECHO_LIMIT else text[:ECHO_LIMIT - 3] + '...'
-
-
-def _parameter_type(default: Any) -> int:
-    if isinstance(default, bool):
-        return ParameterType.PARAMETER_BOOL
-    if isinstance(default, int):
-        return ParameterType.PARAMETER_INTEGER
-    if isinstance(default, float):
-        return ParameterType.PARAMETER_DOUBLE
-    if isinstance(default, str):
-        return ParameterType.PARAMETER_STRING
-    if isinstance(default, (list, tuple)) and default:
-        first = default[0]
-        if isinstance(first, bool):
-            return ParameterType.PARAMETER_BOOL_ARRAY
-        if isinstance(first, int):
-            return ParameterType.PARAMETER_INTEGER_ARRAY
-        if isinstance(first, float):
-            return ParameterType.PARAMETER_DOUBLE_ARRAY
-        if isinstance(first, str):
-            return ParameterType.PARAMETER_STRING_ARRAY
-    raise TypeError(f'cannot infer a parameter type from the default {default!r} '
-                    '(use a non-empty list, e.g. [""] for a string array)')
-
-
-_TYPE_WORDS = {
-    ParameterType.PARAMETER_BOOL: 'true or false', ParameterType.PARAMETER_INTEGER: 'an integer',
-    ParameterType.PARAMETER_DOUBLE: 'a number', ParameterType.PARAMETER_STRING: 'a string',
-    ParameterType.PARAMETER_BOOL_ARRAY: 'a list of true/false', ParameterType.PARAMETER_INTEGER_ARRAY:
-    'a list of integers', ParameterType.PARAMETER_DOUBLE_ARRAY: 'a list of numbers',
-    ParameterType.PARAMETER_STRING_ARRAY: 'a list of strings'}
+_PARAMETER_TYPES = {
+    'bool': ParameterType.PARAMETER_BOOL, 'integer': ParameterType.PARAMETER_INTEGER,
+    'double': ParameterType.PARAMETER_DOUBLE, 'string': ParameterType.PARAMETER_STRING,
+    'bool_array': ParameterType.PARAMETER_BOOL_ARRAY, 'integer_array': ParameterType.PARAMETER_INTEGER_ARRAY,
+    'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY, 'string_array': ParameterType.PARAMETER_STRING_ARRAY}
 
 
 class _Spec:
-    """One declared parameter: its constraints beyond the descriptor's range, and its applier."""
+    """A declared setting with its ROS type and applier."""
 
-    def __init__(self, name: str, type_: int, *, low, high, low_open: bool, high_open: bool,
-                 choices: Sequence[str] | None, length: int | None, required: bool,
-                 check: Callable[[Any], str | None] | None, on_change: Callable[[Any], None] | None):
-        self.name = name
+    def __init__(self, setting: Setting, type_: int, on_change: Callable[[Any], None] | None):
+        self.setting = setting
+        self.name = setting.name
         self.type = type_
-        self.low, self.high, self.low_open, self.high_open = low, high, low_open, high_open
-        self.choices = tuple(choices) if choices is not None else None
-        self.length = length
-        self.required = required
-        self.check = check
         self.on_change = on_change
 
-    def constraints_text(self) -> str:
-        parts = []
-        if self.low is not None or self.high is not None:
-            left = '(' if self.low_open else '['
-            right = ')' if self.high_open else ']'
-            low = '-inf' if self.low is None else f'{self.low:g}'
-            high = 'inf' if self.high is None else f'{self.high:g}'
-            parts.append(f'in {left}{low}, {high}{right}' + (' for each element' if self._is_array() else ''))
-        if self.choices is not None:
-            parts.append('one of: ' + ', '.join(self.choices))
-        if self.length is not None:
-            parts.append(f'exactly {self.length} elements')
-        if self.required:
-            parts.append('required (no default)')
-        return '; '.join(parts)
-
-    def _is_array(self) -> bool:
-        return self.type in (ParameterType.PARAMETER_DOUBLE_ARRAY, ParameterType.PARAMETER_INTEGER_ARRAY)
-
     def problem(self, value: Any) -> str | None:
-        """Why `value` is not acceptable (None when it is)."""
-        if self.required and (value == '' or value is None or
-                              (isinstance(value, (list, tuple)) and not [v for v in value if v != ''])):
-            return 'required'
-        numbers = list(value) if self._is_array() else (
-            [value] if self.type in (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER) else [])
-        for number in numbers:
-            if isinstance(number, float) and not math.isfinite(number):
-                return f'must be finite (got {echo(value)})'
-            if self.low is not None and (number <= self.low if self.low_open else number < self.low) or \
-                    self.high is not None and (number >= self.high if self.high_open else number > self.high):
-                return f'must be {self.constraints_text()} (got {echo(value)})'
-        if self.choices is not None:
-            values = [value] if isinstance(value, str) else list(value)
-            for item in values:
-                if item not in self.choices:
-                    return f"must be one of {', '.join(self.choices)} (got {echo(item)})"
-        if self.length is not None and len(value) != self.length:
-            return f'must have exactly {self.length} elements (got {len(value)})'
-        if self.check is not None:
-            return self.check(value)
-        return None
+        return self.setting.problem(value)
 
 
 class NodeParameters:
@@ -150,24 +78,41 @@ class NodeParameters:
                 choices: Sequence[str] | None = None, length: int | None = None,
                 required: bool = False, check: Callable[[Any], str | None] | None = None,
                 on_change: Callable[[Any], None] | None = None) -> Any:
-        """Declare `name` and return its start-up value (ConfigurationError if it breaks a constraint).
+        """Declare one parameter (see :class:`~collab_tools.core.settings.Setting`) and return its
+        start-up value; ``on_change(value)`` makes it dynamic (applied on set), else it is read-only."""
+        setting = Setting(name, default, description, low=low, high=high, low_open=low_open, high_open=high_open,
+                          choices=choices, length=length, required=required, check=check,
+                          dynamic=on_change is not None)
+        return self.declare_setting(setting, on_change)
 
-        low/high: inclusive bounds unless low_open/high_open (each element for numeric arrays);
-        choices: allowed strings; length: array length; check(value) -> problem text or None;
-        on_change(value): makes the parameter dynamic (applied on set), else it is read-only.
-        """
-        type_ = _parameter_type(default)
-        spec = _Spec(name, type_, low=low, high=high, low_open=low_open, high_open=high_open, choices=choices,
-                     length=length, required=required, check=check, on_change=on_change)
-        descriptor = ParameterDescriptor(name=name, type=type_, description=description,
-                                         additional_constraints=spec.constraints_text(),
+    def declare_schema(self, schema: SettingsSchema,
+                       on_change: Mapping[str, Callable[[Any], None]] | None = None) -> dict[str, Any]:
+        """Declare every setting of ``schema``; ``on_change`` has an applier for each dynamic one.
+        Returns the start-up values by name."""
+        on_change = dict(on_change or {})
+        missing = [s.name for s in schema if s.dynamic and s.name not in on_change]
+        extra = [n for n in on_change if n not in schema or not schema[n].dynamic]
+        if missing or extra:  # a programming error: a dynamic setting nobody applies, or the reverse
+            raise TypeError(f'on_change must name exactly the dynamic settings (missing: {missing}, not dynamic: {extra})')
+        return {s.name: self.declare_setting(s, on_change.get(s.name)) for s in schema}
+
+    def declare_setting(self, setting: Setting, on_change: Callable[[Any], None] | None = None) -> Any:
+        """Declare ``setting`` as a ROS parameter and return its start-up value (ConfigurationError if
+        it breaks a constraint)."""
+        if setting.dynamic != (on_change is not None):
+            raise TypeError(f'parameter {setting.name}: a dynamic setting needs on_change, a read-only one none')
+        type_ = _PARAMETER_TYPES[setting.kind]
+        name, low, high = setting.name, setting.low, setting.high
+        spec = _Spec(setting, type_, on_change)
+        descriptor = ParameterDescriptor(name=name, type=type_, description=setting.description,
+                                         additional_constraints=setting.constraints_text(),
                                          read_only=on_change is None)
         if low is not None or high is not None:
-            if type_ in (ParameterType.PARAMETER_INTEGER, ParameterType.PARAMETER_INTEGER_ARRAY):
+            if setting.kind in ('integer', 'integer_array'):
                 from_value = int(math.ceil(low)) if low is not None else -2**63
                 to_value = int(math.floor(high)) if high is not None else 2**63 - 1
                 descriptor.integer_range = [IntegerRange(from_value=from_value, to_value=to_value, step=0)]
-            elif type_ in (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_DOUBLE_ARRAY):
+            elif setting.kind in ('double', 'double_array'):
                 descriptor.floating_point_range = [FloatingPointRange(
                     from_value=float(low) if low is not None else -math.inf,
                     to_value=float(high) if high is not None else math.inf, step=0.0)]
@@ -176,7 +121,7 @@ class NodeParameters:
         self._specs[name] = spec
         self._declaring = True
         try:
-            self._node.declare_parameter(name, default, descriptor)
+            self._node.declare_parameter(name, setting.default, descriptor)
         finally:
             self._declaring = False
         value = self[name]
@@ -205,7 +150,7 @@ class NodeParameters:
             return
         parameter = overrides[spec.name]
         if parameter.type_ != Parameter.Type(spec.type):
-            raise ConfigurationError(f'parameter {spec.name}: must be {_TYPE_WORDS[spec.type]} '
+            raise ConfigurationError(f'parameter {spec.name}: must be {KIND_WORDS[spec.setting.kind]} '
                                      f'(got {echo(parameter.value)})')
         value = parameter.value
         if isinstance(value, (list, tuple)) and not isinstance(value, str):

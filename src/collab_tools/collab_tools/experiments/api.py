@@ -1,0 +1,172 @@
+"""One signature and one result schema for every experiment.
+
+An experiment module (``<package>/experiments/<table_or_figure>.py``) has a function
+``run(request: ExperimentRequest) -> ExperimentResult`` and is listed, with its paper reference and
+its own command-line options, as an :class:`Experiment` in its package's ``experiments.EXPERIMENTS``.
+
+``results.json`` (written by :func:`write_results`, never by the experiment itself) is one JSON
+object whose first keys are the same for every experiment::
+
+    {"schema": "collab-experiment/1", "experiment": "sgcm-table1",
+     "paper": "SGCM (stackelberg_guidance_sgcm), Table I and Fig. 4",
+     "passed": true, "outcome": "SGCM completed 10 of 10 cases ...",
+     "options": {"mode": "core", ...}, "seed": 0, "wall_s": 12.3,
+     "acceptance": {"passed": true, ...checks},
+     ...the experiment's own keys (cases, rows, runs, ...)}
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+from ..core.errors import ConfigurationError
+
+SCHEMA = 'collab-experiment/1'
+#: Keys the schema owns; an experiment's data may not use them.
+RESERVED_KEYS = ('schema', 'experiment', 'paper', 'passed', 'outcome', 'options', 'seed', 'wall_s', 'acceptance')
+
+Log = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Option:
+    """A command-line option of one experiment (argparse ``add_argument`` keywords)."""
+    flag: str
+    help: str
+    type: Callable[[str], Any] | None = None
+    default: Any = None
+    choices: Sequence[Any] | None = None
+    nargs: str | int | None = None
+    metavar: str | None = None
+    action: str | None = None
+
+    @property
+    def dest(self) -> str:
+        return self.flag.lstrip('-').replace('-', '_')
+
+    def add_to(self, parser) -> None:
+        keywords = {'help': self.help, 'default': self.default}
+        for key in ('type', 'choices', 'nargs', 'metavar', 'action'):
+            value = getattr(self, key)
+            if value is not None:
+                keywords[key] = value
+        parser.add_argument(self.flag, **keywords)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """What ``scripts/experiment`` needs to list, parse and run one experiment.
+
+    name: the command (``sgcm-table1``); paper: the reference (paper, table or figure);
+    summary: one line for the help; module: where ``run`` lives (imported only when it runs,
+    so listing experiments stays fast); options: the experiment's own flags.
+    """
+    name: str
+    paper: str
+    summary: str
+    module: str
+    options: tuple[Option, ...] = ()
+    function: str = 'run'
+
+    def runner(self) -> Callable[['ExperimentRequest'], 'ExperimentResult']:
+        return getattr(import_module(self.module), self.function)
+
+
+@dataclass(frozen=True)
+class ExperimentRequest:
+    """The inputs of one run: where configuration lives, where results go, the seed, the options."""
+    config_dir: Path
+    run_dir: Path
+    seed: int = 0
+    options: Mapping[str, Any] = field(default_factory=dict)
+    log: Log = print
+
+    def option(self, name: str, default: Any = None) -> Any:
+        value = self.options.get(name)
+        return default if value is None else value
+
+
+@dataclass
+class ExperimentResult:
+    """What an experiment found.
+
+    passed: its acceptance check; outcome: one line saying what happened (the report's first
+    line); report: the Markdown shown on screen (the main table); acceptance: the individual
+    checks; data: the experiment's own results (JSON-serialisable), saved beside the schema keys.
+    """
+    passed: bool
+    outcome: str
+    report: str = ''
+    acceptance: dict[str, Any] = field(default_factory=dict)
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        clash = sorted(set(self.data) & set(RESERVED_KEYS))
+        if clash:
+            raise ValueError(f'experiment data may not use the schema keys {clash}')
+
+
+def _json_safe(value: Any) -> Any:
+    """JSON without NaN/inf literals (json.dumps would write invalid JSON): they become null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    if hasattr(value, 'item') and callable(value.item):  # numpy scalars
+        return _json_safe(value.item())
+    return value
+
+
+def results_document(experiment: Experiment, request: ExperimentRequest, result: ExperimentResult,
+                     wall_s: float) -> dict[str, Any]:
+    """The results.json object: the schema keys first, then the experiment's data."""
+    acceptance = {'passed': bool(result.passed), **{k: v for k, v in result.acceptance.items() if k != 'passed'}}
+    document = {'schema': SCHEMA, 'experiment': experiment.name, 'paper': experiment.paper,
+                'passed': bool(result.passed), 'outcome': result.outcome,
+                'options': dict(request.options), 'seed': request.seed, 'wall_s': round(wall_s, 3),
+                'acceptance': acceptance}
+    document.update(result.data)
+    return _json_safe(document)
+
+
+def write_results(experiment: Experiment, request: ExperimentRequest, result: ExperimentResult,
+                  wall_s: float) -> Path:
+    path = Path(request.run_dir) / 'results.json'
+    path.write_text(json.dumps(results_document(experiment, request, result, wall_s), indent=2) + '\n')
+    return path
+
+
+def run_experiment(experiment: Experiment, request: ExperimentRequest) -> ExperimentResult:
+    """Run ``experiment`` and write its results.json; ConfigurationError (or ValueError) for bad input
+    propagates before anything is written."""
+    Path(request.run_dir).mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    result = experiment.runner()(request)
+    if not isinstance(result, ExperimentResult):
+        raise TypeError(f'{experiment.module}.{experiment.function} returned {type(result).__name__}, '
+                        'not an ExperimentResult')
+    write_results(experiment, request, result, time.monotonic() - start)
+    return result
+
+
+def load_results(run_dir: str | Path) -> dict[str, Any]:
+    """A run's results.json, checked against the schema (ConfigurationError naming what is missing)."""
+    path = Path(run_dir) / 'results.json'
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise ConfigurationError(f"results '{path}': cannot read ({error})") from None
+    missing = [key for key in RESERVED_KEYS if key not in document]
+    if document.get('schema') != SCHEMA or missing:
+        raise ConfigurationError(f"results '{path}': not a {SCHEMA} document (missing: {missing or ['schema']})")
+    return document
