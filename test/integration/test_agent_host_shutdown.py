@@ -20,6 +20,7 @@ import time
 import pytest
 import yaml
 
+from coalition_interfaces.msg import AgentStatus
 from collab_tools.orchestration.node_process import NodeSpec
 from bridge_helpers import bridge_spec
 from coalition_agents.core.sim_scenarios import agent_parameter_file
@@ -116,7 +117,7 @@ def test_sigint_at_any_moment_stops_the_agent_host_cleanly(session, config_dir, 
     # 3. Once the leader's search is over (its coalition set up, the helper committed).
     settled = host('host_settled', [LEADER, HELPER, BYSTANDER])
     session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=60.0,
-                             predicate=lambda m: m.state in ('committed', 'failed'))
+                             predicate=lambda m: m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
     assert_clean(settled, session.stop(settled.name))
 
     # 4. As at the end of a two-host run: the leader's host exits on its own, then the helpers'

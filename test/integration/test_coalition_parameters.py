@@ -6,13 +6,12 @@ start-up parameter stops either node with exit code 2.
 Rates are measured in simulated time (/clock, message stamps), so a slow machine cannot fail them.
 """
 
-import re
 import threading
 import time
 
 import pytest
 import yaml
-from coalition_interfaces.msg import AgentMessageBatch
+from coalition_interfaces.msg import AgentMessageBatch, AgentStatus
 from geometry_msgs.msg import Twist
 from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.parameter import Parameter, parameter_value_to_python
@@ -140,8 +139,8 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
     assert get_value(session, AGENT, 'max_speed') == 0.03
 
     leader = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=60.0,
-                                      predicate=lambda m: m.state in ('committed', 'failed'))
-    assert leader.state == 'committed' and tuple(leader.members) == (LEADER, HELPER), leader.detail
+                                      predicate=lambda m: m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
+    assert leader.state == AgentStatus.COMMITTED and tuple(leader.members) == (LEADER, HELPER), leader.detail
 
     commands = SimWindow(node, Twist, f'/{LEADER}/cmd_vel', 10)
     # tick_period: the leader commands cmd_vel once per tick.
@@ -170,9 +169,9 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
     # goal_tolerance: widened beyond the remaining distance, the task is complete at once.
     assert set_one(session, AGENT, 'goal_tolerance', 5.0).successful
     done = session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=30.0,
-                                    predicate=lambda m: m.state in ('completed', 'failed'))
-    assert done.state == 'completed', done.detail
-    distance = float(re.search(r'distance to goal (\d+\.\d+) m\)', done.detail).group(1))
+                                    predicate=lambda m: m.state in (AgentStatus.COMPLETED, AgentStatus.FAILED))
+    assert done.state == AgentStatus.COMPLETED, done.detail
+    distance = done.goal_distance
     assert distance > 0.25  # the start-up tolerance would not have completed it
     print(f'\ncmd_vel per 3 sim s: {fast} (tick 0.1 s), {len(slow)} (tick 0.5 s); helper INFORMATION per 3 sim s: '
           f'{before} (5 Hz), {after} (1 Hz); completed {distance:.2f} m from the goal (tolerance 5 m)')

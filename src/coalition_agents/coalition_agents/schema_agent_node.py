@@ -88,6 +88,7 @@ import sys
 from pathlib import Path
 
 from bridge_interfaces.msg import BumperState, FiducialDetections
+from builtin_interfaces.msg import Time
 from bridge_interfaces.srv import SetSensorActive
 from coalition_interfaces.msg import AgentStatus
 from collab_tools import qos
@@ -104,6 +105,7 @@ from .agent_parameters import (
     FILES, capability_source, declare_agent_parameters, link_model, load_files, retry_policy, task_named,
 )
 from .core.agent import FeasibleCoalition, SchemaAgent
+from .core.agent_state import AgentState
 from .core.channel_codec import ChannelCodec, ChannelMessage, MessageKind, offer_message, request_message
 from .core.coalition_execution import CoalitionExecution
 from .core.cooperative_work import CooperativeWork
@@ -256,6 +258,9 @@ class SchemaAgentNode(Node):
         self._attempts = 0
         self._pending_switches: list[tuple[str, bool]] = []
         self.found_at: float | None = None
+        self.found_cost = 0.0
+        self.finished_at: float | None = None
+        self.goal_distance = math.nan
         self._best_cost: float | None = None
         self._best_since: float | None = None
         self.tick_timer = self.create_timer(tick_period, self._tick)
@@ -344,6 +349,7 @@ class SchemaAgentNode(Node):
                 self.stream.forget()
                 self.follow = None
                 self.state = 'committed'
+                self.formed_at = now
                 serving = self.agent.sensors_serving(message.sender)
                 if self.drive:  # the helper MS needs the leader in view and its own contact
                     serving += tuple(s for s in ('fiducial', 'bumper') if s in self.agent.sensing.sensors)
@@ -424,7 +430,7 @@ class SchemaAgentNode(Node):
         if coalitions:
             cost = coalitions[0].cost
             if self.found_at is None:
-                self.found_at = now
+                self.found_at, self.found_cost = now, cost
                 self.detail = (f'search started at {self.started_at:.3f} s; first executable coalition at '
                                f'{now:.3f} s ({now - self.started_at:.3f} s, cost {cost:g})')
                 self.get_logger().info(f'{self.robot}: {self.detail}')
@@ -505,6 +511,7 @@ class SchemaAgentNode(Node):
         self.channel.release(coalition_id, f'task {state}')
         self.execution = None
         self.state = state
+        self.finished_at = now
         self.detail = f'{self.detail.split("; executing")[0]}; task {state} at {now:.3f} s ({why})'
         log = self.get_logger().info if state == 'completed' else self.get_logger().error
         log(f'{self.robot}: task {self.task_name} {state}: {why}; coalition {coalition_id} released')
@@ -514,7 +521,7 @@ class SchemaAgentNode(Node):
         self._maybe_finish()
 
     def _on_other_status(self, robot: str, msg) -> None:
-        if msg.state in ('completed', 'failed'):
+        if msg.state in (AgentStatus.COMPLETED, AgentStatus.FAILED):
             self.others_done.add(robot)
             self._maybe_finish()
 
@@ -537,6 +544,7 @@ class SchemaAgentNode(Node):
         motor_schema = self.agent.task.motor_schema
         if motor_schema == 'navigate':
             distance = self.navigate.distance((me['x'], me['y']), (goal['x'], goal['y']))
+            self.goal_distance = distance
             command = self.navigate.command((me['x'], me['y']), heading, (goal['x'], goal['y']))
             self._phase('done' if command == STOP and distance <= self.navigate.tolerance else 'navigate',
                         f'distance to goal {distance:.2f} m')
@@ -546,6 +554,7 @@ class SchemaAgentNode(Node):
             teammates = [v['pressed'] > 0.5 for (label, who), v in by_label.items() if label == 'F_B' and who != self.robot]
             command, state = self.push.command((me['x'], me['y']), heading, (box['x'], box['y']),
                                                (goal['x'], goal['y']), pressed, all(teammates) if teammates else None)
+            self.goal_distance = state.box_to_goal
             self._phase(state.phase, f'box {state.box_to_goal:.2f} m from the goal')
         self.heading.commanded(command, self._tick_period)
         return command
@@ -625,7 +634,7 @@ class SchemaAgentNode(Node):
                                + (f" without {', '.join(check.lost_helpers)}" if check.lost_helpers else ''))
         self.started_at = now
         self.state = 'searching'
-        self.found_at = self._best_cost = self._best_since = None
+        self.found_at = self._best_cost = self._best_since = self.formed_at = None
         self.agent.restart(exclude=check.lost_helpers)
         self._publish_status()
 
@@ -638,7 +647,7 @@ class SchemaAgentNode(Node):
                                       f'({self._reforms}/{self.max_reforms})')
             self.started_at = now
             self.state = 'searching'
-            self.found_at = self._best_cost = self._best_since = None
+            self.found_at = self._best_cost = self._best_since = self.formed_at = None
             self.agent.restart()
             self._publish_status()
             return
@@ -688,8 +697,16 @@ class SchemaAgentNode(Node):
         msg = AgentStatus()
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.robot = self.robot
-        msg.state = self.state
+        msg.state = int(AgentState.from_label(self.state))
         msg.task = self.task_name
+        msg.search_started = stamp(self.started_at if self.agent.task is not None else None)
+        msg.coalition_found = stamp(self.found_at)
+        msg.found_cost = float(self.found_cost if self.found_at is not None else 0.0)
+        msg.coalition_formed = stamp(self.formed_at)
+        msg.task_finished = stamp(self.finished_at)
+        msg.potential_solution = 0 if self.chosen is None or self.formed_at is None else self.chosen.potential_solution.rank + 1
+        msg.reforms = self._reforms
+        msg.goal_distance = float(self.goal_distance)
         if self.commitment is not None:
             msg.coalition_id, msg.leader, members, msg.cost = self.commitment
             msg.members = list(members)
@@ -705,6 +722,14 @@ class SchemaAgentNode(Node):
 
 #: Motor schemas this node can run (the task's ``motor_schema``).
 MOTOR_SCHEMAS = ('navigate', 'push_box_cooperatively')
+
+
+def stamp(seconds: float | None) -> Time:
+    """A status stamp from the node's clock in seconds (None: the zero stamp, "not yet")."""
+    if seconds is None:
+        return Time()
+    nanoseconds = int(round(seconds * 1e9))
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 
 def sensor_values(sensor: str, msg) -> tuple[list[str], dict]:
