@@ -24,15 +24,15 @@ from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
                        ReliabilityPolicy)
 
-from .core.bag_storage import ROS_DISTRO, STORAGE_PRESETS
+from .core.bag_storage import ROS_DISTRO
 from .core.bag_types import build_typestore
 from .core.bag_writer import BagWriter, QosSpec
+from .core.tool_settings import RECORDER_SETTINGS
 from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .ros_interfaces import import_interface
 
 RECORD_DEPTH = 100
-DEFAULT_EXCLUDE = ['/rosout', '/parameter_events']
 EXIT_UNRECORDED = 1
 
 
@@ -48,33 +48,16 @@ def subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
                       liveliness=LivelinessPolicy.AUTOMATIC)
 
 
-def _regex_problem(patterns: list[str]) -> str | None:
-    for pattern in patterns:
-        try:
-            re.compile(pattern)
-        except re.error as error:
-            return f'invalid regular expression {pattern!r} ({error})'
-    return None
-
-
 class BagRecorder(Node):
 
     def __init__(self):
         super().__init__('bag_recorder')
         self.params = NodeParameters(self)
-        output = self.params.declare('output', '', 'directory of the new bag (must not exist yet)', required=True)
-        topics = self.params.declare(
-            'topics', [''], "topics to record; a relative name is resolved in this node's namespace; "
-            "[''] = every topic that exclude does not match", check=self._topics_problem)
-        exclude = self.params.declare(
-            'exclude', DEFAULT_EXCLUDE, 'regular expressions (full match on absolute names) of the topics '
-            'not recorded when topics is empty', check=_regex_problem)
-        period = self.params.declare('discovery_period', 0.5, 'seconds between looks for new topics',
-                                     low=0.01, high=60.0, on_change=self._set_discovery_period)
-        preset = self.params.declare(
-            'storage_preset', 'none', "MCAP chunk compression, as rosbag2's storage_preset_profile: none and "
-            'fastwrite = uncompressed 768 KiB chunks, zstd_fast = zstd level -5, zstd_small = zstd level 19 '
-            'in 4 MiB chunks', choices=tuple(STORAGE_PRESETS))
+        # Topic names are checked the way this node will resolve them (rclpy's rules, its namespace).
+        schema = RECORDER_SETTINGS.replaced('topics', check=self._topics_problem)
+        values = self.params.declare_schema(schema, on_change={'discovery_period': self._set_discovery_period})
+        output, topics, exclude = values['output'], values['topics'], values['exclude']
+        period, preset = values['discovery_period'], values['storage_preset']
         self.topics = [self.resolve_topic_name(t) for t in topics if t]
         self.exclude = [re.compile(p) for p in exclude if p]
 

@@ -10,21 +10,13 @@ script can wait for it; others spin until shutdown.
 import signal
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
-from rclpy.node import Node
 from rclpy.task import Future
 
+from .core.errors import ConfigurationError  # re-exported: nodes raise it
 
-from .core.errors import ConfigurationError  # noqa: E402  (re-exported: nodes raise it)
-
-__all__ = ['ConfigurationError', 'declare', 'run', 'stop_signal_handling']
-
-
-def declare(node: Node, name: str, default, description: str):
-    # Dynamic typing: a YAML `0` for a float parameter gets our clear error, not an rclpy exception.
-    node.declare_parameter(name, default, ParameterDescriptor(description=description, dynamic_typing=True))
+__all__ = ['ConfigurationError', 'run', 'stop_signal_handling']
 
 
 def stop_signal_handling() -> None:

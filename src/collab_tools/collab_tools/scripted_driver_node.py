@@ -13,6 +13,7 @@ from rclpy.node import Node
 from std_msgs.msg import Bool
 
 from .core.drive_plan import PlanError, load_plan
+from .core.tool_settings import DRIVER_SETTINGS
 from .node_support import run
 from .parameters import NodeParameters
 from .qos import COMMAND_OUT, LATCHED
@@ -23,9 +24,8 @@ class ScriptedDriver(Node):
     def __init__(self):
         super().__init__('scripted_driver')
         params = NodeParameters(self)
-        plan_file = params.declare('plan_file', '', 'drive plan YAML (config/plans/*.yaml)', required=True)
-        rate = params.declare('command_rate', 20.0, 'Hz at which commands are published (of the node clock)',
-                              low=0.0, high=1000.0, low_open=True, on_change=self._set_rate)
+        values = params.declare_schema(DRIVER_SETTINGS, on_change={'command_rate': self._set_rate})
+        plan_file, rate = values['plan_file'], values['command_rate']
         self.plan = load_plan(plan_file)
         self.cmd_pubs = {robot: self.create_publisher(Twist, f'{robot}/cmd_vel', COMMAND_OUT)
                          for robot in self.plan.robots}

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from .errors import ConfigurationError
@@ -190,6 +190,11 @@ class SettingsSchema:
     def extended(self, *settings: Setting) -> 'SettingsSchema':
         """This schema plus more settings (e.g. a node's own beside a shared group)."""
         return SettingsSchema(*self._settings.values(), *settings)
+
+    def replaced(self, name: str, **changes: Any) -> 'SettingsSchema':
+        """This schema with setting ``name`` changed (e.g. a ``check`` only the node can do, such as
+        resolving a topic name in its namespace)."""
+        return SettingsSchema(*(replace(s, **changes) if s.name == name else s for s in self._settings.values()))
 
     def defaults(self) -> dict[str, Any]:
         return {name: setting.default for name, setting in self._settings.items()}
