@@ -62,7 +62,7 @@ class ExperimentError(ValueError):
 
 
 @dataclass
-class ExperimentResult:
+class SessionRunResult:
     run_dir: Path
     exit_code: int
     condition_met: bool
@@ -164,7 +164,7 @@ def _network(data: dict) -> tuple[Discovery, dict]:
 
 def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                    overrides: dict[str, dict] | None = None, log=print,
-                   host: str | None = None) -> ExperimentResult:
+                   host: str | None = None) -> SessionRunResult:
     """Run the experiment; every node's log and the bag end up in the run dir.
 
     host: run only that host's part (its nodes, until they exit or Ctrl-C) -- on a remote host.
@@ -237,7 +237,7 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             message = str(error)
         session.condition_met = condition_met
         log(f'[experiment] {data["name"]}: {message}')
-    return ExperimentResult(session.run_dir, session.exit_code(), condition_met, bag, message)
+    return SessionRunResult(session.run_dir, session.exit_code(), condition_met, bag, message)
 
 
 def _resolve_parameter_files(specs: list[NodeSpec], path: Path, overrides) -> list[NodeSpec]:
@@ -250,7 +250,7 @@ def _resolve_parameter_files(specs: list[NodeSpec], path: Path, overrides) -> li
     return specs
 
 
-def _run_host_part(session: Session, specs: list[NodeSpec], path: Path, overrides, log) -> ExperimentResult:
+def _run_host_part(session: Session, specs: list[NodeSpec], path: Path, overrides, log) -> SessionRunResult:
     """One remote host's nodes: started here, kept until they all exit (or Ctrl-C)."""
     with session:
         for spec in _resolve_parameter_files(specs, path, overrides):
@@ -264,7 +264,7 @@ def _run_host_part(session: Session, specs: list[NodeSpec], path: Path, override
         except NodeExitedError as error:
             message = str(error)
         log(f'[experiment] {session.label}: {message}')
-    return ExperimentResult(session.run_dir, session.exit_code(), bool(session.condition_met), None, message)
+    return SessionRunResult(session.run_dir, session.exit_code(), bool(session.condition_met), None, message)
 
 
 def _run_step(session: Session, step, path: str) -> None:
