@@ -1,0 +1,24 @@
+"""What every package shares, without ROS and without a simulator.
+
+The workspace's three layers meet here: each package's core validates its inputs with
+:mod:`.fields` and declares its nodes' parameters with :mod:`.settings`; bags, images and TF
+trees are read and written with the modules below, by nodes, experiments and reports alike.
+
+| concept | module |
+|---|---|
+| the one input-error type (exit code 2) | :mod:`.errors` (``ConfigurationError``) |
+| validating readers for YAML fields (dotted paths) | :mod:`.fields` |
+| node parameters as data (type, range, dynamic) | :mod:`.settings`; the tool nodes' in :mod:`.tool_settings` |
+| rosbag2 bags: writing (MCAP, metadata v9) | :mod:`.bag_writer`, :mod:`.bag_storage` (presets, chunks) |
+| rosbag2 bags: message types and definitions | :mod:`.bag_types` |
+| rosbag2 bags: reading, summaries, checks | :mod:`.bag_analysis`, :mod:`.bag_check` |
+| report plots from bags | :mod:`.report_plots` |
+| images: JPEG/PNG transport, label images | :mod:`.image_codec` |
+| pinhole camera geometry (pixel <-> world) | :mod:`.camera_geometry` |
+| TF trees (lookups through a chain of stamped transforms) | :mod:`.tf_tree` |
+| scripted drive plans (the demo's driver) | :mod:`.drive_plan` |
+
+The experiments layer's shared parts (one signature, one results schema, sweeps, plots) are in
+:mod:`collab_tools.experiments`; the ROS adapters (parameters, names, QoS, node life cycle,
+orchestration) are the modules beside this package.
+"""
