@@ -17,17 +17,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
-from pybullet_bridge.core.errors import ScenarioError
-from pybullet_bridge.core.fields import Fields, check_color, check_int, join_path, require_list, \
+from collab_tools.core.errors import ConfigurationError
+from collab_tools.core.fields import Fields, check_color, check_int, join_path, read_yaml_file, require_list, \
     require_mapping
 
 
-class TaskConfigError(ValueError):
+class TaskConfigError(ConfigurationError):
     """A task or case file the planner cannot use; the message names the field."""
 
 
 DISTANCES = ('chebyshev', 'manhattan')
+#: The largest prediction horizon T a task may ask for (game.horizon; the leader's horizon parameter).
+MAX_HORIZON = 6
 
 
 @dataclass(frozen=True)
@@ -160,16 +161,7 @@ class Case:
 # --- loading -------------------------------------------------------------------------
 
 def _read_yaml(path: str | Path, what: str) -> Any:
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding='utf-8'))
-    except OSError as err:
-        raise TaskConfigError(f"{what} file '{path}': cannot read ({err.strerror or err})") from err
-    except yaml.YAMLError as err:
-        raise TaskConfigError(f"{what} file '{path}': invalid YAML ({err})") from err
-    if data is None:
-        raise TaskConfigError(f"{what} file '{path}': file is empty")
-    return data
+    return read_yaml_file(path, f'{what} file', error=TaskConfigError)
 
 
 def load_task(path: str | Path, overrides: dict | None = None) -> TaskConfig:
@@ -184,18 +176,11 @@ def load_task(path: str | Path, overrides: dict | None = None) -> TaskConfig:
         raise TaskConfigError(f'{err} (in {path})') from None
 
 
-def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
-    try:
-        return _parse_task(data, source)
-    except ScenarioError as err:  # the shared field readers raise the bridge's error type
-        raise TaskConfigError(str(err)) from None
-
-
 def _cell(value: Any, path: str, rows: int, cols: int) -> int:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
         raise TaskConfigError(f'{path}: must be a cell [row, col] (got {value!r})')
-    row = check_int(value[0], join_path(path, 0), ge=0)
-    col = check_int(value[1], join_path(path, 1), ge=0)
+    row = check_int(value[0], join_path(path, 0), ge=0, error=TaskConfigError)
+    col = check_int(value[1], join_path(path, 1), ge=0, error=TaskConfigError)
     if row >= rows or col >= cols:
         raise TaskConfigError(f'{path}: cell [{row}, {col}] is outside the {rows}x{cols} grid '
                               f'(rows 0..{rows - 1}, cols 0..{cols - 1})')
@@ -203,7 +188,7 @@ def _cell(value: Any, path: str, rows: int, cols: int) -> int:
 
 
 def _robot(value: Any, path: str, default_directions: int) -> RobotModel:
-    f = Fields(value if value is not None else {}, path,
+    f = Fields(value if value is not None else {}, path, error=TaskConfigError,
                allowed=('directions', 'move_cost', 'diagonal_cost', 'failure_probability'))
     directions = f.integer('directions', default_directions)
     if directions not in (4, 8):
@@ -214,17 +199,17 @@ def _robot(value: Any, path: str, default_directions: int) -> RobotModel:
                       failure_probability=f.number('failure_probability', 0.1, ge=0.0, le=1.0))
 
 
-def _parse_task(data: Any, source: Path | None) -> TaskConfig:
+def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
     top = Fields(data, '', allowed=('grid', 'colours', 'robots', 'cost', 'reward', 'utility', 'game',
-                                    'workspace'))
-    grid = Fields(top.raw('grid', {}), 'grid', allowed=('rows', 'cols', 'cell_capacity'))
+                                    'workspace'), error=TaskConfigError)
+    grid = Fields(top.raw('grid', {}), 'grid', allowed=('rows', 'cols', 'cell_capacity'), error=TaskConfigError)
     rows = grid.integer('rows', 3, ge=1, le=10)
     cols = grid.integer('cols', 3, ge=1, le=10)
     if rows * cols < 2:
         raise TaskConfigError('grid: needs at least two cells')
     capacity = grid.integer('cell_capacity', 6, ge=1, le=50)
 
-    colour_items = require_mapping(top.raw('colours'), 'colours')
+    colour_items = require_mapping(top.raw('colours'), 'colours', error=TaskConfigError)
     if not colour_items:
         raise TaskConfigError('colours: at least one colour is required')
     names, rgbs, goals = [], [], []
@@ -232,50 +217,53 @@ def _parse_task(data: Any, source: Path | None) -> TaskConfig:
         path = join_path('colours', str(name))
         if not isinstance(name, str) or not name.isidentifier():
             raise TaskConfigError(f'{path}: colour names must be identifiers (got {name!r})')
-        f = Fields(spec, path, allowed=('goal', 'rgb'))
+        f = Fields(spec, path, allowed=('goal', 'rgb'), error=TaskConfigError)
         names.append(name)
         goals.append(_cell(f.raw('goal'), f.path_of('goal'), rows, cols))
-        rgbs.append(check_color(f.raw('rgb'), f.path_of('rgb')))
+        rgbs.append(check_color(f.raw('rgb'), f.path_of('rgb'), error=TaskConfigError))
 
-    robots = Fields(top.raw('robots', {}), 'robots', allowed=('leader', 'follower'))
+    robots = Fields(top.raw('robots', {}), 'robots', allowed=('leader', 'follower'), error=TaskConfigError)
     leader = _robot(robots.raw('leader', None), 'robots.leader', 8)
     follower = _robot(robots.raw('follower', None), 'robots.follower', 4)
 
     cost = Fields(top.raw('cost', {}), 'cost', allowed=('clutter_threshold', 'clutter_factor',
-                                                        'charge_failed_actions'))
+                                                        'charge_failed_actions'), error=TaskConfigError)
     clutter = ClutterRule(threshold=cost.integer('clutter_threshold', 3, ge=1),
                           factor=cost.number('clutter_factor', 2.0, ge=1.0))
     charge_failed = cost.raw('charge_failed_actions', True)
     if not isinstance(charge_failed, bool):
         raise TaskConfigError(f'cost.charge_failed_actions: must be true or false (got {charge_failed!r})')
 
-    reward = Fields(top.raw('reward', {}), 'reward', allowed=('scale', 'distance', 'goal_bonus'))
+    reward = Fields(top.raw('reward', {}), 'reward', allowed=('scale', 'distance', 'goal_bonus'),
+                    error=TaskConfigError)
     distance = reward.string('distance', 'chebyshev')
     if distance not in DISTANCES:
         raise TaskConfigError(f"reward.distance: must be one of {', '.join(DISTANCES)} (got '{distance}')")
     reward_model = RewardModel(scale=reward.number('scale', 1.0, gt=0.0), distance=distance,
                                goal_bonus=reward.number('goal_bonus', 0.0, ge=0.0))
 
-    util = Fields(top.raw('utility', {}), 'utility', allowed=('leader', 'follower'))
+    util = Fields(top.raw('utility', {}), 'utility', allowed=('leader', 'follower'), error=TaskConfigError)
     weights = {}
     for who in ('leader', 'follower'):
-        f = Fields(util.raw(who, {}), util.path_of(who), allowed=('own_cost', 'other_cost'))
+        f = Fields(util.raw(who, {}), util.path_of(who), allowed=('own_cost', 'other_cost'),
+                   error=TaskConfigError)
         weights[f'{who}_own'] = f.number('own_cost', 1.0, ge=0.0)
         weights[f'{who}_other'] = f.number('other_cost', 1.0, ge=0.0)
 
     game = Fields(top.raw('game', {}), 'game', allowed=('horizon', 'discount', 'round_limit',
-                                                        'failure_probability'))
+                                                        'failure_probability'), error=TaskConfigError)
     failure = game.raw('failure_probability', None)
     if failure is not None:
         # game.failure_probability overrides both robots' p_fail (experiments sweep it).
-        fp = Fields(failure, 'game.failure_probability', allowed=('leader', 'follower'))
+        fp = Fields(failure, 'game.failure_probability', allowed=('leader', 'follower'),
+                    error=TaskConfigError)
         leader = RobotModel(leader.directions, leader.move_cost, leader.diagonal_cost,
                             fp.number('leader', leader.failure_probability, ge=0.0, le=1.0))
         follower = RobotModel(follower.directions, follower.move_cost, follower.diagonal_cost,
                               fp.number('follower', follower.failure_probability, ge=0.0, le=1.0))
 
     ws = Fields(top.raw('workspace', {}), 'workspace',
-                allowed=('center', 'cell_size', 'table_height', 'cube_size'))
+                allowed=('center', 'cell_size', 'table_height', 'cube_size'), error=TaskConfigError)
     workspace = Workspace(center=ws.vector('center', 2, (0.0, 0.0)),  # type: ignore[arg-type]
                           cell_size=ws.number('cell_size', 0.10, gt=0.0),
                           table_height=ws.number('table_height', 0.40, gt=0.0),
@@ -288,7 +276,7 @@ def _parse_task(data: Any, source: Path | None) -> TaskConfig:
         rows=rows, cols=cols, cell_capacity=capacity, colours=tuple(names),
         colour_rgb=tuple(rgbs), goals=tuple(goals), leader=leader, follower=follower,
         clutter=clutter, reward=reward_model, utility=UtilityWeights(**weights),
-        horizon=game.integer('horizon', 2, ge=1, le=6),
+        horizon=game.integer('horizon', 2, ge=1, le=MAX_HORIZON),
         discount=game.number('discount', 0.9, gt=0.0, le=1.0),
         round_limit=game.integer('round_limit', 20, ge=1),
         charge_failed_actions=charge_failed, workspace=workspace, source=source)
@@ -304,55 +292,49 @@ def load_cases(path: str | Path, task: TaskConfig) -> list[Case]:
 
 
 def parse_cases(data: Any, task: TaskConfig) -> list[Case]:
-    try:
-        top = Fields(data, '', allowed=('cases',))
-        items = require_list(top.raw('cases'), 'cases')
-        if not items:
-            raise TaskConfigError('cases: at least one case is required')
-        cases, seen = [], set()
-        for index, item in enumerate(items):
-            case = parse_case(item, task, join_path('cases', index))
-            if case.name in seen:
-                raise TaskConfigError(f"{join_path('cases', index)}.name: duplicate case name '{case.name}'")
-            seen.add(case.name)
-            cases.append(case)
-        return cases
-    except ScenarioError as err:
-        raise TaskConfigError(str(err)) from None
+    top = Fields(data, '', allowed=('cases',), error=TaskConfigError)
+    items = require_list(top.raw('cases'), 'cases', error=TaskConfigError)
+    if not items:
+        raise TaskConfigError('cases: at least one case is required')
+    cases, seen = [], set()
+    for index, item in enumerate(items):
+        case = parse_case(item, task, join_path('cases', index))
+        if case.name in seen:
+            raise TaskConfigError(f"{join_path('cases', index)}.name: duplicate case name '{case.name}'")
+        seen.add(case.name)
+        cases.append(case)
+    return cases
 
 
 def parse_case(item: Any, task: TaskConfig, path: str = 'case') -> Case:
     """One case: ``{name, objects: {colour: [[row, col], ...]}}``, one cell entry per object."""
-    try:
-        f = Fields(item, path, allowed=('name', 'objects'))
-        name = f.string('name')
-        objects = require_mapping(f.raw('objects'), f.path_of('objects'))
-        counts = np.zeros((task.cells, len(task.colours)), dtype=np.int64)
-        for colour, cells in objects.items():
-            cpath = join_path(f.path_of('objects'), str(colour))
-            if colour not in task.colours:
-                raise TaskConfigError(f"{cpath}: unknown colour '{colour}' "
-                                      f"(known: {', '.join(task.colours)})")
-            for i, cell in enumerate(require_list(cells, cpath)):
-                counts[_cell(cell, join_path(cpath, i), task.rows, task.cols),
-                       task.colours.index(colour)] += 1
-        if counts.sum() == 0:
-            raise TaskConfigError(f'{f.path_of("objects")}: the case has no objects')
-        totals = counts.sum(axis=1)
-        if totals.max() > task.cell_capacity:
-            cell = int(totals.argmax())
-            raise TaskConfigError(
-                f'{f.path_of("objects")}: cell {task.cell_name(cell)} holds {int(totals[cell])} objects, '
-                f'more than grid.cell_capacity = {task.cell_capacity}')
-        goal_totals = np.zeros(task.cells, dtype=np.int64)
-        for colour, goal in enumerate(task.goals):
-            goal_totals[goal] += counts[:, colour].sum()
-        if goal_totals.max() > task.cell_capacity:
-            cell = int(goal_totals.argmax())
-            raise TaskConfigError(
-                f'{f.path_of("objects")}: the goal cell {task.cell_name(cell)} would have to hold '
-                f'{int(goal_totals[cell])} objects, more than grid.cell_capacity = {task.cell_capacity}')
-        return Case(name=name, counts=counts)
-    except ScenarioError as err:
-        raise TaskConfigError(str(err)) from None
+    f = Fields(item, path, allowed=('name', 'objects'), error=TaskConfigError)
+    name = f.string('name')
+    objects = require_mapping(f.raw('objects'), f.path_of('objects'), error=TaskConfigError)
+    counts = np.zeros((task.cells, len(task.colours)), dtype=np.int64)
+    for colour, cells in objects.items():
+        cpath = join_path(f.path_of('objects'), str(colour))
+        if colour not in task.colours:
+            raise TaskConfigError(f"{cpath}: unknown colour '{colour}' "
+                                  f"(known: {', '.join(task.colours)})")
+        for i, cell in enumerate(require_list(cells, cpath, error=TaskConfigError)):
+            counts[_cell(cell, join_path(cpath, i), task.rows, task.cols),
+                   task.colours.index(colour)] += 1
+    if counts.sum() == 0:
+        raise TaskConfigError(f'{f.path_of("objects")}: the case has no objects')
+    totals = counts.sum(axis=1)
+    if totals.max() > task.cell_capacity:
+        cell = int(totals.argmax())
+        raise TaskConfigError(
+            f'{f.path_of("objects")}: cell {task.cell_name(cell)} holds {int(totals[cell])} objects, '
+            f'more than grid.cell_capacity = {task.cell_capacity}')
+    goal_totals = np.zeros(task.cells, dtype=np.int64)
+    for colour, goal in enumerate(task.goals):
+        goal_totals[goal] += counts[:, colour].sum()
+    if goal_totals.max() > task.cell_capacity:
+        cell = int(goal_totals.argmax())
+        raise TaskConfigError(
+            f'{f.path_of("objects")}: the goal cell {task.cell_name(cell)} would have to hold '
+            f'{int(goal_totals[cell])} objects, more than grid.cell_capacity = {task.cell_capacity}')
+    return Case(name=name, counts=counts)
 
