@@ -19,7 +19,7 @@ def test_segments_play_in_order_then_stop():
     ({'robots': {}}, 'robots:'),
     ({'robots': {'a': [{'linear': 0.1, 'angular': 0.0}]}}, r'robots.a\[0\].duration: missing'),
     ({'robots': {'a': [{'linear': float('nan'), 'angular': 0.0, 'duration': 1}]}},
-     r'robots.a\[0\].linear: must be a finite number'),
+     r'robots.a\[0\].linear: must be finite'),
     ({'robots': {'a': [{'linear': 0.1, 'angular': 0.0, 'duration': 0}]}},
      r'robots.a\[0\].duration: must be > 0'),
     ({'robots': {'a': [{'linear': 0.1, 'angular': 0.0, 'duration': 1, 'speed': 2}]}},

@@ -45,6 +45,8 @@ from typing import Any
 
 import yaml
 
+from ..core.errors import ConfigurationError
+from ..core.fields import Fields, read_yaml_file, require_mapping
 from ..names import check_namespace
 from .network import Discovery, NetworkConfigError, parse_hosts
 from .node_process import NodeSpec
@@ -57,8 +59,8 @@ TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start'
 DEFAULT_DISCOVERY_TIMEOUT = 30.0
 
 
-class ExperimentError(ValueError):
-    pass
+class ExperimentError(ConfigurationError):
+    """An experiment file field that cannot work; the message starts with its dotted path."""
 
 
 @dataclass
@@ -83,15 +85,11 @@ def _substitute(value: Any, names: dict[str, str]) -> Any:
 
 
 def _require_mapping(value, path: str) -> dict:
-    if not isinstance(value, dict):
-        raise ExperimentError(f'{path}: must be a mapping')
-    return value
+    return dict(require_mapping(value, path, ExperimentError))
 
 
 def _check_fields(mapping: dict, allowed: set[str], path: str) -> None:
-    unknown = sorted(set(mapping) - allowed)
-    if unknown:
-        raise ExperimentError(f'{path}.{unknown[0]}: unknown field (allowed: {", ".join(sorted(allowed))})')
+    Fields(mapping, path, sorted(allowed), ExperimentError)
 
 
 def parse_node(entry, path: str) -> NodeSpec:
@@ -125,12 +123,7 @@ def _matches(msg, expected: dict, at_least: dict | None = None) -> bool:
 
 
 def load_experiment(path: Path) -> dict:
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as error:
-        raise ExperimentError(f'experiment file {path}: cannot read ({error.strerror})') from None
-    except yaml.YAMLError as error:
-        raise ExperimentError(f'experiment file {path}: invalid YAML ({error})') from None
+    data = read_yaml_file(path, 'experiment file', ExperimentError)
     data = _require_mapping(data, 'experiment')
     _check_fields(data, TOP_FIELDS, 'experiment')
     if not isinstance(data.get('name'), str):

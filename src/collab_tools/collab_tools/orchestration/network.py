@@ -28,12 +28,14 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from ..core.errors import ConfigurationError
+
 RANGES = ('LOCALHOST', 'SUBNET', 'OFF', 'SYSTEM_DEFAULT')
 _SERVER = re.compile(r'^[A-Za-z0-9_.\-]+(:\d{1,5})?$')
 _NETNS = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
 
 
-class NetworkConfigError(ValueError):
+class NetworkConfigError(ConfigurationError):
     """A discovery or host setting that cannot work; the message names the field."""
 
 
