@@ -43,8 +43,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..core.errors import ConfigurationError
 from ..core.fields import Fields, read_yaml_file, require_mapping
 from ..names import check_namespace
@@ -142,7 +140,7 @@ def load_experiment(path: Path) -> dict:
         raise ExperimentError(f'experiment.domain_id: must be an integer in [0, 232] (got {domain_id!r})')
     timeout = data.get('discovery_timeout', DEFAULT_DISCOVERY_TIMEOUT)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= 3600:
-        raise ExperimentError(f'experiment.discovery_timeout: must be a number of seconds in (0, 3600]')
+        raise ExperimentError('experiment.discovery_timeout: must be a number of seconds in (0, 3600]')
     _network(data)  # checked here; the file's data stays plain (callers edit and re-dump it)
     return data
 
