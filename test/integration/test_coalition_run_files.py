@@ -8,7 +8,7 @@ import json
 
 import yaml
 
-from coalition_agents.sim_experiments import run_column_demo
+from coalition_agents.experiments.column import run_column_demo
 
 
 def run_dir_paths(value, run_dir) -> list[str]:

@@ -46,8 +46,10 @@ def test_demo_under_a_discovery_server_records_every_topic(config_dir, tmp_path)
 COLUMN_UNDER_SERVER = '''
 import json, sys
 from pathlib import Path
-from coalition_agents.sim_experiments import (AgentSetup, COLUMN_CONFIG, COLUMN_TYPES, column_placements,
-                                              column_result, load_column_config, read_coalition_bag, run_session)
+from coalition_agents.core.sim_scenarios import COLUMN_TYPES, column_placements
+from coalition_agents.experiments.coalition_bag import read_coalition_bag
+from coalition_agents.experiments.column import COLUMN_CONFIG, column_result, load_column_config
+from coalition_agents.experiments.sessions import AgentSetup, run_session
 config, run_dir, server = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
 column = load_column_config(config / 'coalitions' / COLUMN_CONFIG)
 placements = column_placements(3, column.spacing_m)

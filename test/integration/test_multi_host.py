@@ -102,8 +102,10 @@ def test_sgcm_case_with_the_follower_on_another_host(tmp_path):
 COALITION_SPLIT = '''
 import json, sys
 from pathlib import Path
-from coalition_agents.sim_experiments import (AgentSetup, COLUMN_CONFIG, COLUMN_TYPES, column_placements,
-                                              column_result, load_column_config, read_coalition_bag, run_session)
+from coalition_agents.core.sim_scenarios import COLUMN_TYPES, column_placements
+from coalition_agents.experiments.coalition_bag import read_coalition_bag
+from coalition_agents.experiments.column import COLUMN_CONFIG, column_result, load_column_config
+from coalition_agents.experiments.sessions import AgentSetup, run_session
 config, run_dir, host_b, discovery = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
 column = load_column_config(config / 'coalitions' / COLUMN_CONFIG)
 placements = column_placements(4, column.spacing_m)

@@ -23,7 +23,7 @@ between repeats):
 * **Robots** -- one robot's space does not depend on the team (it is built with variables), but
   the number of spaces a team builds does: every request with variables is answered by every robot
   (footnote 9) and fully instantiated labels name robots. For N = 2, 5, 10, 20 robots of Table IV
-  in two layouts with geometric sensing (:class:`~coalition_agents.experiments.GeometricSensing`):
+  in two layouts with geometric sensing (:class:`~coalition_agents.core.geometric_sensing.GeometricSensing`):
 
   - ``column`` (Fig. 9): only the front robot localises; each robot sees only the one in front
     (2 m apart, fiducial 180 deg, 3 m); the last robot initiates the navigation task;
@@ -53,7 +53,8 @@ from .core import (
     load_capability_file, request_variants,
 )
 from .core.errors import CoalitionError
-from .experiments import CoalitionConfig, FieldOfView, GeometricSensing, Pose
+from .core.geometric_sensing import FieldOfView, GeometricSensing, Pose
+from .experiments.configuration import CoalitionConfig
 
 Log = Callable[[str], None]
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from coalition_agents.boxpush_experiment import read_run
+from coalition_agents.experiments.boxpush import read_run
 
 WORKSPACE = Path(__file__).resolve().parents[3]
 AGENTS = {

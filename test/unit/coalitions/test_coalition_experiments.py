@@ -4,11 +4,12 @@ import json
 import pytest
 import yaml
 
+from collab_tools.experiments.api import ExperimentRequest, run_experiment
 from coalition_agents.benchmark import referent_library, run_benchmark
 from coalition_agents.core import ConfigError
-from coalition_agents.experiments import (
-    CoalitionConfig, FieldOfView, GeometricSensing, Pose, load_scenario, run_fig7_core, run_table3,
-)
+from coalition_agents.core.geometric_sensing import FieldOfView, GeometricSensing, Pose
+from coalition_agents.experiments import experiment_named
+from coalition_agents.experiments.configuration import CoalitionConfig, load_scenario
 
 PAPER_TABLE3_COSTS = [5.0, 8.0, 8.5, 9.0, 9.5, 10.5, 11.0, 11.5, 11.5, 12.0, 12.0]
 
@@ -17,11 +18,20 @@ def quiet(_line):
     pass
 
 
+def run_named(name, config_dir, run_dir, log=quiet, **options):
+    """Run an experiment as scripts/experiment does (results.json written); ``config_dir`` is
+    config/coalitions, the request takes the workspace's config/."""
+    request = ExperimentRequest(config_dir=config_dir.parent, run_dir=run_dir, options=options, log=log)
+    return run_experiment(experiment_named(name), request)
+
+
 # --- Table III ---------------------------------------------------------------------------------
 
 def test_table3_experiment(config_dir, tmp_path):
     lines = []
-    results = run_table3(config_dir, tmp_path, log=lines.append)
+    result = run_named('coalition-table3', config_dir, tmp_path, log=lines.append)
+    results = result.data
+    assert result.passed and result.acceptance['costs_match_paper'] and result.acceptance['leaves_match_paper']
     assert [s['cost'] for s in results['solutions'][:4]] == [5.0, 8.0, 8.5, 9.0]
     assert results['costs'] == PAPER_TABLE3_COSTS and results['matches_paper']
     assert all(s['leaves_match_paper'] for s in results['solutions'])
@@ -60,7 +70,9 @@ def test_table3_experiment(config_dir, tmp_path):
 @pytest.fixture(scope='module')
 def fig7(tmp_path_factory, config_dir):
     run_dir = tmp_path_factory.mktemp('fig7')
-    return run_fig7_core(config_dir, run_dir, log=quiet), run_dir
+    result = run_named('coalition-fig7', config_dir, run_dir)
+    assert result.passed == result.data['matches_paper']
+    return result.data, run_dir
 
 
 def test_fig7_table5(fig7):

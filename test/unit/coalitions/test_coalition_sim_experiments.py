@@ -112,7 +112,7 @@ def test_run_session_gives_the_agents_their_parameters_not_files(monkeypatch, tm
     every agent process gets the team inline and its robots' parameters as a parameter-file mapping."""
     from collab_tools.orchestration import experiment as orchestration
     from coalition_agents.core import capability_file_from_text
-    from coalition_agents.sim_experiments import AgentSetup, run_session
+    from coalition_agents.experiments.sessions import AgentSetup, run_session
     monkeypatch.setattr(orchestration, 'run_experiment', lambda path, *args, **kwargs: path)
     placements = column_placements(3)
     setup = AgentSetup(leaders=('robot_3',), hosted=hosted, host_processes=processes)
@@ -143,7 +143,7 @@ def test_run_session_gives_the_agents_their_parameters_not_files(monkeypatch, tm
 
 
 def test_column_config_errors_name_the_field(tmp_path):
-    from coalition_agents.sim_experiments import load_column_config
+    from coalition_agents.experiments.column import load_column_config
     good = {'robots': [2, 10], 'spacing_m': 1.0, 'fiducial': {'fov_deg': 60.0, 'range_m': 1.5},
             'search_time_s': {'default': 2.0, 10: 3.0}, 'paper_time_s': {10: 28.0}}
     path = tmp_path / 'column.yaml'
@@ -165,7 +165,7 @@ def test_column_config_errors_name_the_field(tmp_path):
 
 
 def test_host_groups_split_the_agents_evenly_with_the_leaders_in_the_first_host():
-    from coalition_agents.sim_experiments import host_groups
+    from coalition_agents.experiments.sessions import host_groups
     robots = [f'robot_{k}' for k in range(1, 11)]
     groups = host_groups(robots, ['robot_10'], 2)
     assert groups == [['robot_10', 'robot_1', 'robot_2', 'robot_3', 'robot_4'],
@@ -236,7 +236,8 @@ REQUEST, OFFER, ACK = 1, 2, 3
 
 
 def test_column_result_from_a_bag(coalition_bag, tmp_path):
-    from coalition_agents.sim_experiments import column_result, read_coalition_bag
+    from coalition_agents.experiments.coalition_bag import read_coalition_bag
+    from coalition_agents.experiments.column import column_result
     members = ('robot_3', 'robot_1', 'robot_2')
     statuses = [(10.0, 'robot_1', 'idle', 'none', '', '', (), 0), (10.0, 'robot_2', 'idle', 'none', '', '', (), 0),
                 (10.1, 'robot_3', 'searching', 'navigation', '', '', (), 0),
@@ -265,7 +266,9 @@ def test_column_result_from_a_bag(coalition_bag, tmp_path):
 
 
 def test_a_robot_committed_to_two_coalitions_is_reported(coalition_bag, tmp_path):
-    from coalition_agents.sim_experiments import commitments, conflicting_commitments, leader_timeline, read_coalition_bag
+    from coalition_agents.experiments.coalition_bag import (
+        commitments, conflicting_commitments, leader_timeline, read_coalition_bag,
+    )
     statuses = [(1.0, 'helper', 'committed', 'none', 'a/1', 'a', ('a', 'helper'), 16),
                 (2.0, 'helper', 'committed', 'none', 'b/1', 'b', ('b', 'helper'), 16),   # no release in between
                 (3.0, 'other', 'committed', 'none', 'a/1', 'a', ('a', 'other'), 16),
@@ -280,7 +283,7 @@ def test_a_robot_committed_to_two_coalitions_is_reported(coalition_bag, tmp_path
 
 
 def test_found_is_the_leaders_first_executable_coalition_status(coalition_bag, tmp_path):
-    from coalition_agents.sim_experiments import FOUND_MARK, leader_timeline, read_coalition_bag
+    from coalition_agents.experiments.coalition_bag import FOUND_MARK, leader_timeline, read_coalition_bag
     members = ('robot_2', 'robot_1')
     statuses = [(5.0, 'robot_2', 'searching', 'navigation', '', '', (), 0),
                 (5.4, 'robot_2', 'searching', 'navigation', '', '', (), 0),

@@ -1,0 +1,61 @@
+"""The IQ-ASyMTRe paper's experiments (``scripts/experiment coalition-*``), one module per table or figure.
+
+Paper: Y. Zhang and L. E. Parker, "IQ-ASyMTRe: Forming Executable Coalitions for Tightly Coupled
+Multirobot Tasks", IEEE T-RO 2013 (``shared/papers/iq_asymtre_coalitions.txt``), Section V-A.
+
+==========================================  ======================  ==================================
+Paper                                       Experiment              Module
+==========================================  ======================  ==================================
+Sec. V-A-1, Table III                       coalition-table3        table3 (solution_space_plot)
+Sec. V-A-2, Fig. 7 / Table V, core          coalition-fig7          fig7 (fig7_plots; sensing:
+                                                                    core.geometric_sensing)
+Sec. V-A-2, Fig. 7 / Table V, simulation    coalition-fig7 --mode   fig7_sim
+                                            sim
+Sec. V-A-4, Fig. 9                          coalition-fig9          fig9 (column)
+Sec. V-A-5, Fig. 10/11 box pushing          coalition-boxpush       boxpush
+==========================================  ======================  ==================================
+
+Shared by them: :mod:`.configuration` (config/coalitions/ and the Fig. 7 scenario file),
+:mod:`.sessions` (schema_agent nodes on the bridge through the orchestration library),
+:mod:`.coalition_bag` (statuses and channel traffic read back from a run's bag). Every module
+has ``run(request: ExperimentRequest) -> ExperimentResult`` (collab_tools.experiments.api);
+this ``__init__`` imports nothing heavy, so listing the experiments stays fast.
+"""
+from __future__ import annotations
+
+from collab_tools.experiments.api import Experiment, Option
+
+PAPER = 'IQ-ASyMTRe (iq_asymtre_coalitions)'
+
+EXPERIMENTS = (
+    Experiment('coalition-table3', f'{PAPER}, Sec. V-A-1, Table III',
+               'potential solutions for F_G(local) vs the paper (Table III)',
+               'coalition_agents.experiments.table3'),
+    Experiment('coalition-fig7', f'{PAPER}, Sec. V-A-2, Fig. 7 and Table V',
+               'possible vs executable coalitions, three clusters (Fig. 7, Table V)',
+               'coalition_agents.experiments.fig7',
+               (Option('--mode', 'core = geometric sensing, the team search in one process; sim = schema_agent '
+                                 'nodes on the bridge, recorded', choices=('core', 'sim'), default='core'),
+                Option('--loss', '--mode sim: message loss probability on the agent channel', type=float,
+                       default=0.0),
+                Option('--scenario', 'scenario file (default config/coalitions/scenarios/fig7.yaml)'))),
+    Experiment('coalition-fig9', f'{PAPER}, Sec. V-A-4, Fig. 9',
+               'column of robots: time to find the coalition, messages (Fig. 9)',
+               'coalition_agents.experiments.fig9',
+               (Option('--robots', 'column sizes to run (default: config/coalitions/scenarios/fig9_column.yaml)',
+                       type=int, nargs='+', metavar='N'),)),
+    Experiment('coalition-boxpush', f'{PAPER}, Sec. V-A-5, Fig. 10/11',
+               'box pushing + navigation with executable coalitions, 0 and 20 % loss (sim)',
+               'coalition_agents.experiments.boxpush'),
+)
+
+
+def experiment_named(name: str) -> Experiment:
+    """The entry of ``name`` (KeyError naming the known ones)."""
+    for experiment in EXPERIMENTS:
+        if experiment.name == name:
+            return experiment
+    raise KeyError(f"unknown experiment {name!r} (known: {', '.join(e.name for e in EXPERIMENTS)})")
+
+
+__all__ = ['EXPERIMENTS', 'experiment_named']

@@ -1,0 +1,221 @@
+"""``coalition-boxpush``: box pushing and navigation with executable coalitions in simulation (IQ-ASyMTRe).
+
+Paper: Section V-A-5, Fig. 10 and Fig. 11 (``shared/papers/iq_asymtre_coalitions.txt``), the
+cooperative robot box pushing task: five robots of three types; the box-pushing leader forms a
+coalition with a teammate whose bumper it needs, the robot that cannot localise forms one with a
+GPS robot that sees it, the helpers stream what they committed to and the motor schemas drive.
+Each run is config/experiments/coalition_boxpush.yaml (bridge + five schema_agent nodes, recorded)
+with the agent channel's loss probability as an override; everything reported is read back from
+the bag (:func:`read_run`):
+
+* the coalitions formed (from the agents' /<robot>/coalition status), each leader's time from
+  the start of its search to its first coalition, the re-formings and the final states;
+* ground truth (/ground_truth/bodies): the box's and the navigating robot's final distances to
+  their goals, and every trajectory (the plot);
+* the channel traffic (the agents' inbox topics, batches unpacked) by message kind;
+* conflicts: a robot whose status moves from one coalition to another without being released in
+  between held two commitments (the CommitmentLedger forbids it; this checks it from outside;
+  :func:`.coalition_bag.conflicting_commitments`).
+
+``results.json``: ``runs`` (one per loss probability) with ``coalitions``, ``robots`` (final
+state, coalition and detail per robot), ``box`` and ``navigation`` (final ground-truth distance to
+the goal, ``completed`` as reported by the leader, ``reached`` = within
+:data:`ACCEPTANCE_TOLERANCE_M` of it), ``time_to_form_s`` per leader, ``messages`` by kind,
+``conflicts``. Acceptance (``passed``): every run got the box and the navigating robot to their
+goals without a conflict. The leaders stop at their own ``goal_tolerance`` (agents' parameters) of
+their *estimate*; it is tighter than the acceptance, so that the estimate's error (a few cm)
+does not decide the result.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import yaml
+from collab_tools.core.bag_analysis import read_messages
+from collab_tools.experiments import plots
+from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
+from collab_tools.experiments.plots import plt
+from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
+
+from ..core.errors import ConfigError
+from .coalition_bag import conflicting_commitments, kind_totals, read_coalition_bag
+
+EXPERIMENT = 'coalition_boxpush.yaml'
+BOX = 'box'
+#: how close (m) the box and the navigating robot must end to their goals (ground truth)
+ACCEPTANCE_TOLERANCE_M = 0.3
+GROUND_TRUTH = '/ground_truth/bodies'
+#: The two tasks of the scenario: leader robot -> what it does.
+BOX_TASK, NAVIGATION_TASK = 'box_pushing_to_goal', 'navigation'
+#: The agent channel's loss probabilities, one run each.
+LOSSES = (0.0, 0.2)
+
+
+def agent_nodes(experiment: dict) -> dict[str, dict]:
+    """robot -> merged inline parameters of its schema_agent node in the experiment file, and the
+    node's orchestration label (``node``). The robot is the node's namespace (/<robot>)."""
+    agents = {}
+    for index, node in enumerate(experiment['nodes']):
+        if node.get('executable') != 'schema_agent':
+            continue
+        params: dict = {}
+        for entry in node.get('parameters', []):
+            if isinstance(entry, dict):
+                params.update(entry)
+        robot = str(node.get('namespace') or '').strip('/').split('/')[-1]
+        if not robot:
+            raise ValueError(f'experiment nodes[{index}] (schema_agent): needs namespace: /<robot>')
+        agents[robot] = {**params, 'robot': robot, 'node': parse_node(node, f'nodes[{index}]').label}
+    return agents
+
+
+def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
+    """Everything the results report about one run, from its bag (see the module docstring)."""
+    coalition_run = read_coalition_bag(bag)   # statuses and channel traffic, batches unpacked
+    trajectories: dict[str, list[tuple[float, float, float]]] = {}
+    for _, _, msg in read_messages(bag, [GROUND_TRUTH]):
+        sim_t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        for body in msg.bodies:
+            if body.name in agents or body.name == BOX:
+                trajectories.setdefault(body.name, []).append((sim_t, body.pose.position.x, body.pose.position.y))
+    statuses = {robot: coalition_run.of(robot) for robot in agents}
+    coalitions: dict[str, dict] = {}
+    for robot, history in statuses.items():
+        for status in history:
+            cid = status.coalition_id
+            if cid and status.state == 'committed' and status.leader == robot and cid not in coalitions:
+                coalitions[cid] = {'leader': robot, 'members': list(status.members), 'cost': status.cost,
+                                   'established_at_s': round(status.stamp, 3)}
+    conflicts = [{'robot': robot, 'coalitions': held}
+                 for robot, held in conflicting_commitments(coalition_run).items()]
+    leaders = {robot: params for robot, params in agents.items() if params.get('task', 'none') != 'none'}
+    time_to_form = {}
+    for robot in leaders:
+        started = next((s.stamp for s in statuses[robot] if s.state == 'searching'), None)
+        formed = next((s.stamp for s in statuses[robot] if s.state == 'committed' and s.coalition_id), None)
+        time_to_form[robot] = None if started is None or formed is None else round(formed - started, 3)
+    final = {robot: history[-1] if history else None for robot, history in statuses.items()}
+
+    def outcome(leader: str, body: str) -> dict:
+        goal = [float(v) for v in leaders[leader]['goal_position']]
+        path = trajectories.get(body, [])
+        if not path:
+            return {'leader': leader, 'goal': goal, 'final_distance_m': None, 'completed': False, 'reached': False}
+        _, x, y = path[-1]
+        distance = math.hypot(goal[0] - x, goal[1] - y)
+        last = final[leader]
+        return {'leader': leader, 'goal': goal, 'final_position': [round(x, 3), round(y, 3)],
+                'final_distance_m': round(distance, 3), 'completed': last is not None and last.state == 'completed',
+                'reached': distance <= goal_tolerance, 'leader_detail': last.detail if last else ''}
+
+    box_leader = next(r for r, p in leaders.items() if p['task'] == BOX_TASK)
+    nav_leader = next(r for r, p in leaders.items() if p['task'] == NAVIGATION_TASK)
+    reforms = {robot: sum(1 for a, b in zip(statuses[robot], statuses[robot][1:])
+                          if a.state == 'committed' and b.state == 'searching') for robot in leaders}
+    return {
+        'coalitions': coalitions,
+        'time_to_form_s': time_to_form,
+        'reforms': reforms,
+        'robots': {robot: ({'state': last.state, 'coalition_id': last.coalition_id, 'detail': last.detail}
+                           if last else {'state': 'no status', 'coalition_id': '', 'detail': ''})
+                   for robot, last in final.items()},
+        'box': outcome(box_leader, BOX),
+        'navigation': outcome(nav_leader, nav_leader),
+        'messages': kind_totals(coalition_run),
+        'ros_messages': coalition_run.ros_messages,
+        'conflicts': conflicts,
+        'trajectories': {name: [[round(v, 3) for v in point] for point in path[::5]]
+                         for name, path in trajectories.items()},
+    }
+
+
+def plot_run(run: dict, path: Path, title: str) -> None:
+    """Every body's ground-truth trajectory (the box thick), with the two goals."""
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    for name, points in sorted(run['trajectories'].items()):
+        xs, ys = [p[1] for p in points], [p[2] for p in points]
+        style = dict(linewidth=3, color='purple') if name == BOX else dict(linewidth=1.5)
+        line, = ax.plot(xs, ys, label=name, **style)
+        ax.plot(xs[0], ys[0], 'o', color=line.get_color())
+        ax.plot(xs[-1], ys[-1], 's', color=line.get_color())
+    for key, marker in (('box', '*'), ('navigation', 'X')):
+        goal = run[key]['goal']
+        ax.plot(goal[0], goal[1], marker, markersize=16, color='black', label=f'{key} goal')
+    ax.set_aspect('equal')
+    ax.set_xlabel('x (m)')
+    ax.set_ylabel('y (m)')
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc='best')
+    fig.tight_layout()
+    plots.save(fig, path, dpi=120)
+
+
+def run(request: ExperimentRequest) -> ExperimentResult:
+    """One recorded simulation per loss probability of :data:`LOSSES` (see the module docstring);
+    summary.md and each run's trajectories.png (in ``loss_<p>/``) in the run directory."""
+    config_dir, run_dir, seed, log = Path(request.config_dir), Path(request.run_dir), request.seed, request.log
+    losses = LOSSES
+    experiment = load_experiment(Path(config_dir) / 'experiments' / EXPERIMENT)
+    agents = agent_nodes(experiment)
+    # The run ends when the leader that waits for the other one exits (exit_after).
+    last = next(params for params in agents.values() if [r for r in params.get('exit_after', []) if r])
+    experiment['until'] = {'exit': last['node']}
+    Path(run_dir).mkdir(parents=True, exist_ok=True)
+    experiment_path = Path(run_dir) / 'experiment.yaml'
+    experiment_path.write_text(yaml.safe_dump(experiment, sort_keys=False))
+    shared = yaml.safe_load((Path(config_dir) / 'coalitions' / 'boxpush_agents.yaml').read_text())
+    goal_tolerance = float(shared['/**']['ros__parameters']['goal_tolerance'])
+    if goal_tolerance > ACCEPTANCE_TOLERANCE_M:
+        raise ConfigError(f'boxpush_agents.yaml goal_tolerance: the leaders must stop within the acceptance '
+                         f'tolerance {ACCEPTANCE_TOLERANCE_M} m (got {goal_tolerance})')
+    quiet = lambda _text: None  # noqa: E731
+    runs = []
+    for index, loss in enumerate(losses):
+        if not 0.0 <= loss <= 1.0:
+            raise ConfigError(f'loss: must be in [0, 1] (got {loss!r})')
+        label = f'loss_{loss:g}'
+        case_dir = Path(run_dir) / label
+        overrides = {params['node']: {'loss_probability': float(loss), 'seed': seed * 100 + index * 10 + position}
+                     for position, params in enumerate(agents.values())}
+        log(f'[coalition-boxpush] {label}: running the simulation ({case_dir})')
+        result = run_experiment(experiment_path, Path(config_dir), run_dir=case_dir, overrides=overrides, log=quiet)
+        if result.bag is None or not result.bag.exists():
+            raise RuntimeError(f'{label}: no bag recorded ({result.message}); logs in {case_dir / "logs"}')
+        run = read_run(result.bag, agents, ACCEPTANCE_TOLERANCE_M)
+        run.update({'loss_probability': loss, 'condition_met': result.condition_met, 'session': result.message})
+        plot_run(run, case_dir / 'trajectories.png', f'coalition box pushing and navigation, loss {loss:g}')
+        log(f"[coalition-boxpush] {label}: box {run['box']['final_distance_m']} m from its goal "
+            f"(completed {run['box']['completed']}), navigation {run['navigation']['final_distance_m']} m "
+            f"(completed {run['navigation']['completed']}); time to form {run['time_to_form_s']}; "
+            f"re-formings {run['reforms']}; conflicts {len(run['conflicts'])}")
+        runs.append(run)
+    results = {'goal_tolerance_m': ACCEPTANCE_TOLERANCE_M, 'leader_goal_tolerance_m': goal_tolerance, 'runs': runs}
+    acceptance = {'box_reached': all(r['box']['reached'] for r in runs),
+                  'navigation_reached': all(r['navigation']['reached'] for r in runs),
+                  'no_conflicts': all(not r['conflicts'] for r in runs)}
+    passed = all(acceptance.values())
+    table = summary_markdown(results)
+    (Path(run_dir) / 'summary.md').write_text(table)
+    outcome = '; '.join(f"loss {r['loss_probability']:g}: box {r['box']['final_distance_m']} m, navigation "
+                        f"{r['navigation']['final_distance_m']} m from the goal, {len(r['conflicts'])} conflicts"
+                        for r in runs)
+    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results)
+
+
+def summary_markdown(results: dict) -> str:
+    lines = ['| loss | coalitions | time to form (s) | re-formings | box to goal (m) | box completed | '
+             'navigation to goal (m) | navigation completed | conflicts | messages |',
+             '|---|---|---|---|---|---|---|---|---|---|']
+    for run in results['runs']:
+        coalitions = '; '.join(f"{c['leader']}: {'+'.join(c['members'])} ({c['cost']:g})"
+                               for c in run['coalitions'].values())
+        lines.append(f"| {run['loss_probability']:g} | {coalitions} | {run['time_to_form_s']} | {run['reforms']} | "
+                     f"{run['box']['final_distance_m']} | {run['box']['completed']} | "
+                     f"{run['navigation']['final_distance_m']} | {run['navigation']['completed']} | "
+                     f"{len(run['conflicts'])} | {sum(run['messages'].values())} |")
+    return '\n'.join(lines) + '\n'
+
+
+__all__ = ['ACCEPTANCE_TOLERANCE_M', 'LOSSES', 'agent_nodes', 'plot_run', 'read_run', 'run', 'summary_markdown']

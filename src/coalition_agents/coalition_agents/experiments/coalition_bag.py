@@ -1,0 +1,240 @@
+"""Reading a recorded coalition run: the agents' statuses and the channel traffic from its bag.
+
+The recorder of a simulated run keeps ``/coalition/channel``, every robot's inbox
+``/coalition/channel/<robot>`` and every ``/<robot>/coalition`` status (AgentStatus);
+:func:`read_coalition_bag` turns them into a :class:`CoalitionRun`, and the functions below
+measure it (from the agents' own stamps: a status is stamped when it is published, a channel
+message when it leaves the link model, i.e. after its sampled delay):
+
+* :func:`leader_timeline` -- a leader's search, as the paper's Fig. 9 measures it:
+
+  - search start: the time in the leader's status detail (``search started at <t> s``), else its
+    first ``searching`` status;
+  - found: the leader's status that reports its first executable coalition (published when the
+    agent first instantiates one; the paper's "time to find the coalition solution"). Bags without
+    it (older runs) fall back to the first offer that, with the earlier ones, covers the members of
+    the coalition it later set up;
+  - formed: the leader's ``committed`` status (negotiation done). The node negotiates once its
+    cheapest coalition has not improved for ``settle_time``, or at ``search_time`` at the latest:
+    formed - found is settle_time plus the negotiation's round trips.
+
+* :func:`commitments`, :func:`conflicting_commitments` -- which coalitions each robot held, and
+  whether one held two at once (the CommitmentLedger forbids it; this checks it from outside);
+* :func:`message_counts`, :func:`kind_totals` -- the channel traffic (Fig. 9's lower plots).
+"""
+from __future__ import annotations
+
+import math
+import re
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+from ..core.channel_codec import MessageKind
+
+CHANNEL = '/coalition/channel'
+STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
+#: the leader's status detail when it has its first executable coalition (schema_agent_node)
+FOUND_MARK = 'first executable coalition at'
+#: the start of the search in the leader's status detail (its own clock)
+SEARCH_START = re.compile(r'search started at (\d+(?:\.\d+)?) s')
+
+
+def status_topic(robot: str) -> str:
+    return f'/{robot}/coalition'
+
+
+@dataclass(frozen=True)
+class StatusRecord:
+    stamp: float
+    robot: str
+    state: str
+    task: str
+    coalition_id: str
+    leader: str
+    members: tuple[str, ...]
+    cost: float
+    detail: str = ''
+
+
+@dataclass(frozen=True)
+class MessageRecord:
+    stamp: float
+    sender: str
+    receiver: str
+    kind: int
+    members: tuple[str, ...] = ()
+    cost: float = 0.0
+
+
+@dataclass
+class CoalitionRun:
+    """The statuses and channel messages of one recorded run, in stamp order."""
+
+    statuses: list[StatusRecord] = field(default_factory=list)
+    #: logical channel messages (every message of a batch, every piggybacked ACK as kind 3)
+    messages: list[MessageRecord] = field(default_factory=list)
+    #: ROS messages on the channel topics (batches on the inboxes, single messages on the shared topic)
+    ros_messages: int = 0
+
+    def robots(self) -> list[str]:
+        return sorted({s.robot for s in self.statuses})
+
+    def leaders(self) -> list[str]:
+        """Robots whose status names a task (they search; the others help)."""
+        return sorted({s.robot for s in self.statuses if s.task and s.task != 'none'})
+
+    def of(self, robot: str) -> list[StatusRecord]:
+        return [s for s in self.statuses if s.robot == robot]
+
+
+def _stamp(header) -> float:
+    return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+
+def read_coalition_bag(bag: Path) -> CoalitionRun:
+    """Statuses (``/<robot>/coalition``) and channel messages of a recorded run."""
+    from collab_tools.core.bag_analysis import read_messages
+    run = CoalitionRun()
+    for topic, _, msg in read_messages(Path(bag)):
+        if topic == CHANNEL or topic.startswith(CHANNEL + '/'):  # the shared topic and the inboxes
+            run.ros_messages += 1
+            stamp = _stamp(msg.header)
+            if hasattr(msg, 'acked_ids'):  # an AgentMessageBatch (agent_channel): stamped when it left the link
+                run.messages.extend(MessageRecord(stamp, m.sender, m.receiver, int(m.kind), tuple(m.members),
+                                                  float(m.cost)) for m in msg.messages)
+                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
+                                    for _ in msg.acked_ids)
+            else:
+                run.messages.append(MessageRecord(stamp, msg.sender, msg.receiver, int(msg.kind),
+                                                  tuple(msg.members), float(msg.cost)))
+        elif topic.endswith('/coalition') and hasattr(msg, 'state'):
+            run.statuses.append(StatusRecord(_stamp(msg.header), msg.robot, msg.state, msg.task, msg.coalition_id,
+                                             msg.leader, tuple(msg.members), float(msg.cost), msg.detail))
+    run.statuses.sort(key=lambda s: s.stamp)
+    run.messages.sort(key=lambda m: m.stamp)
+    return run
+
+
+@dataclass(frozen=True)
+class LeaderTimeline:
+    """One leader's search: its stamps (s, its own clock) and the coalition it set up."""
+
+    robot: str
+    search_start: float | None
+    found: float | None
+    formed: float | None
+    state: str
+    members: tuple[str, ...]
+    cost: float | None
+    coalition_id: str
+
+    @property
+    def found_s(self) -> float | None:
+        return None if self.found is None or self.search_start is None else self.found - self.search_start
+
+    @property
+    def formed_s(self) -> float | None:
+        return None if self.formed is None or self.search_start is None else self.formed - self.search_start
+
+    def to_dict(self) -> dict:
+        rounded = lambda v: None if v is None else round(v, 4)  # noqa: E731
+        return {'robot': self.robot, 'state': self.state, 'members': list(self.members), 'cost': self.cost,
+                'coalition_id': self.coalition_id, 'found_s': rounded(self.found_s),
+                'formed_s': rounded(self.formed_s)}
+
+
+def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
+    """When ``leader`` started searching, found and set up its coalition (see the module docstring)."""
+    statuses = run.of(leader)
+    # The agent's own record of its search start (its first 'searching' status may be missed by
+    # a recorder that subscribes to the latched status topic late), else that status's stamp.
+    started = next((match for s in statuses for match in [SEARCH_START.search(s.detail)] if match), None)
+    start = float(started.group(1)) if started else next((s.stamp for s in statuses if s.state == 'searching'), None)
+    final = statuses[-1] if statuses else None
+    committed = next((s for s in statuses if s.state == 'committed' and s.leader == leader), None)
+    found = next((s.stamp for s in statuses if FOUND_MARK in s.detail), None)
+    if committed is not None and found is None:
+        helpers = set(committed.members) - {leader}
+        covered: set[str] = set()
+        for message in run.messages:
+            if message.kind != MessageKind.OFFER or message.receiver != leader:
+                continue
+            provided = ({message.sender} | set(message.members)) - {leader}
+            covered |= provided
+            if provided == helpers or helpers <= covered:
+                found = message.stamp
+                break
+        if not helpers:
+            found = committed.stamp
+    return LeaderTimeline(leader, start, found, None if committed is None else committed.stamp,
+                          final.state if final else 'absent',
+                          committed.members if committed else (), committed.cost if committed else None,
+                          committed.coalition_id if committed else '')
+
+
+def commitments(run: CoalitionRun) -> dict[str, list[str]]:
+    """robot -> the distinct coalitions it was committed to, in order (a robot holding two at once
+    shows up in :func:`conflicting_commitments`)."""
+    found: dict[str, list[str]] = defaultdict(list)
+    for status in run.statuses:
+        if status.state == 'committed' and status.coalition_id and status.coalition_id not in found[status.robot]:
+            found[status.robot].append(status.coalition_id)
+    return dict(found)
+
+
+def conflicting_commitments(run: CoalitionRun) -> dict[str, list[str]]:
+    """robot -> coalitions it was committed to while still committed to another: a status with a
+    new coalition id without an idle/failed status (release) in between."""
+    conflicts: dict[str, list[str]] = {}
+    for robot in run.robots():
+        current = ''
+        for status in run.of(robot):
+            if status.state == 'committed' and status.coalition_id:
+                if current and status.coalition_id != current:
+                    conflicts.setdefault(robot, [current]).append(status.coalition_id)
+                current = status.coalition_id
+            elif status.state in ('idle', 'failed', 'searching'):
+                current = ''
+    return conflicts
+
+
+def message_counts(run: CoalitionRun, robots: Sequence[str], start: float, end: float,
+                   bin_s: float) -> dict:
+    """Messages each robot sent and received (addressed to it) per time bin after ``start``."""
+    if not bin_s > 0:
+        raise ValueError(f'bin_s: must be > 0 (got {bin_s})')
+    bins = max(1, int(math.ceil((end - start) / bin_s)))
+    sent = {robot: [0] * bins for robot in robots}
+    received = {robot: [0] * bins for robot in robots}
+    for message in run.messages:
+        index = int((message.stamp - start) // bin_s)
+        if not 0 <= index < bins:
+            continue
+        if message.sender in sent:
+            sent[message.sender][index] += 1
+        if message.receiver in received:
+            received[message.receiver][index] += 1
+    return {'bin_s': bin_s, 'times_s': [round(i * bin_s, 6) for i in range(bins)], 'sent': sent,
+            'received': received}
+
+
+def _kind_name(kind: int) -> str:
+    try:
+        return MessageKind(kind).text
+    except ValueError:
+        return str(kind)
+
+
+def kind_totals(run: CoalitionRun) -> dict[str, int]:
+    totals: dict[str, int] = defaultdict(int)
+    for message in run.messages:
+        totals[_kind_name(message.kind)] += 1
+    return dict(totals)
+
+
+
+__all__ = ['CHANNEL', 'CoalitionRun', 'FOUND_MARK', 'LeaderTimeline', 'MessageRecord', 'SEARCH_START', 'STATUS_TYPE',
+           'StatusRecord', 'commitments', 'conflicting_commitments', 'kind_totals', 'leader_timeline', 'message_counts',
+           'read_coalition_bag', 'status_topic']
