@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from coalition_agents.core.agent_state import AgentState
 from coalition_agents.experiments.boxpush import read_run
 
 WORKSPACE = Path(__file__).resolve().parents[3]
@@ -19,7 +20,7 @@ AGENTS = {
 
 @pytest.fixture
 def boxpush_bag(tmp_path):
-    """write(statuses, poses): statuses (t, robot, state, task, coalition_id, leader, members, cost);
+    """write(statuses, poses): statuses (t, robot, state label, task, coalition_id, leader, members, cost);
     poses (t, {body: (x, y)}) on /ground_truth/bodies."""
     from collab_tools.core.bag_types import build_typestore
     from collab_tools.core.bag_writer import BagWriter
@@ -34,6 +35,9 @@ def boxpush_bag(tmp_path):
     def header(t):
         return T['std_msgs/msg/Header'](stamp=T['builtin_interfaces/msg/Time'](
             sec=int(t), nanosec=int(round((t % 1) * 1e9))), frame_id='world')
+
+    def not_yet():
+        return T['builtin_interfaces/msg/Time'](sec=0, nanosec=0)
 
     def body(name, x, y):
         return T['bridge_interfaces/msg/BodyState'](
@@ -51,9 +55,11 @@ def boxpush_bag(tmp_path):
             for robot in AGENTS:
                 writer.add_topic(f'/{robot}/coalition', status_type)
             rows = [(s[0], f'/{s[1]}/coalition', status_type, T[status_type](
-                header=header(s[0]), robot=s[1], state=s[2], task=s[3], coalition_id=s[4], leader=s[5],
-                members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0, duplicates=0,
-                dropped=0, detail='')) for s in statuses]
+                header=header(s[0]), robot=s[1], state=AgentState.from_label(s[2]).value, task=s[3], coalition_id=s[4],
+                leader=s[5], members=list(s[6]), cost=float(s[7]), search_started=not_yet(), coalition_found=not_yet(),
+                found_cost=0.0, coalition_formed=not_yet(), task_finished=not_yet(), potential_solution=0, reforms=0,
+                goal_distance=float('nan'), requests_sent=0, offers_received=0, retries=0, duplicates=0, dropped=0,
+                detail='')) for s in statuses]
             rows += [(t, '/ground_truth/bodies', bodies_type, T[bodies_type](
                 header=header(t), bodies=[body(name, *xy) for name, xy in bodies.items()])) for t, bodies in poses]
             for t, topic, type_name, msg in sorted(rows, key=lambda r: r[0]):

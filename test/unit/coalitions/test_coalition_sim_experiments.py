@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from coalition_agents.core import load_capability_file, load_library
+from coalition_agents.core.agent_state import AgentState
 from coalition_agents.core.errors import ConfigError
 from coalition_agents.core.sim_scenarios import (
     COLUMN_TYPES, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, capability_text,
@@ -185,10 +186,11 @@ def test_host_groups_split_the_agents_evenly_with_the_leaders_in_the_first_host(
 
 @pytest.fixture
 def coalition_bag(tmp_path):
-    """write(path, statuses, messages): a bag with /coalition/channel and /<robot>/coalition.
+    """write(path, statuses, messages, typed=None): a bag with /coalition/channel and /<robot>/coalition.
 
-    statuses: (t, robot, state, task, coalition_id, leader, members, cost);
-    messages: (t, sender, receiver, kind, members)."""
+    statuses: (t, robot, state label, task, coalition_id, leader, members, cost);
+    messages: (t, sender, receiver, kind, members);
+    typed: status index -> the AgentStatus stamps (s, 0 = not yet) and other typed fields it carries."""
     from collab_tools.core.bag_types import build_typestore
     from collab_tools.core.bag_writer import BagWriter
 
@@ -201,9 +203,19 @@ def coalition_bag(tmp_path):
     store = build_typestore([status_type, message_type], prefixes=[prefix])
     T = store.types
 
+    def time(t):
+        return T['builtin_interfaces/msg/Time'](sec=int(t), nanosec=int(round((t % 1) * 1e9)))
+
     def header(t):
-        return T['std_msgs/msg/Header'](stamp=T['builtin_interfaces/msg/Time'](sec=int(t), nanosec=int(round((t % 1) * 1e9))),
-                                        frame_id='')
+        return T['std_msgs/msg/Header'](stamp=time(t), frame_id='')
+
+    def status_fields(fields):
+        """AgentStatus's typed fields: zero stamps (not yet) unless given."""
+        typed = {'search_started': 0.0, 'coalition_found': 0.0, 'found_cost': 0.0, 'coalition_formed': 0.0,
+                 'task_finished': 0.0, 'potential_solution': 0, 'reforms': 0, 'goal_distance': float('nan'),
+                 **fields}
+        stamps = ('search_started', 'coalition_found', 'coalition_formed', 'task_finished')
+        return {key: time(value) if key in stamps else value for key, value in typed.items()}
 
     def info():
         return T['coalition_interfaces/msg/Information'](type='', referents=[])
@@ -211,16 +223,17 @@ def coalition_bag(tmp_path):
     # AgentMessage's streamed values (INFORMATION messages), empty here
     streamed_values = {'values': []} if 'values' in T[message_type].__dataclass_fields__ else {}
 
-    def write(path, statuses, messages, details=None):
-        details = details or {}
+    def write(path, statuses, messages, typed=None):
+        typed = typed or {}
         with BagWriter(path, store) as writer:
             writer.add_topic('/coalition/channel', message_type)
             for robot in sorted({s[1] for s in statuses}):
                 writer.add_topic(f'/{robot}/coalition', status_type)
             rows = [(s[0], f'/{s[1]}/coalition', status_type, T[status_type](
-                header=header(s[0]), robot=s[1], state=s[2], task=s[3], coalition_id=s[4], leader=s[5],
-                members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0, duplicates=0,
-                dropped=0, detail=details.get(index, ''))) for index, s in enumerate(statuses)]
+                header=header(s[0]), robot=s[1], state=AgentState.from_label(s[2]).value, task=s[3], coalition_id=s[4],
+                leader=s[5], members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0,
+                duplicates=0, dropped=0, detail='', **status_fields(typed.get(index, {}))))
+                for index, s in enumerate(statuses)]
             rows += [(m[0], '/coalition/channel', message_type, T[message_type](
                 header=header(m[0]), message_id=i + 1, sender=m[1], receiver=m[2], kind=m[3], conversation_id=0,
                 in_reply_to=0, label=info(), chain=[], instance=info(), cost=0.0, members=list(m[4]), coalition_id='',
@@ -283,15 +296,16 @@ def test_a_robot_committed_to_two_coalitions_is_reported(coalition_bag, tmp_path
 
 
 def test_found_is_the_leaders_first_executable_coalition_status(coalition_bag, tmp_path):
-    from coalition_agents.experiments.coalition_bag import FOUND_MARK, leader_timeline, read_coalition_bag
+    from coalition_agents.experiments.coalition_bag import leader_timeline, read_coalition_bag
     members = ('robot_2', 'robot_1')
     statuses = [(5.0, 'robot_2', 'searching', 'navigation', '', '', (), 0),
                 (5.4, 'robot_2', 'searching', 'navigation', '', '', (), 0),
                 (5.8, 'robot_1', 'committed', 'none', 'c', 'robot_2', members, 16),
                 (5.9, 'robot_2', 'committed', 'navigation', 'c', 'robot_2', members, 16)]
-    details = {1: f'search started at 5.000 s; {FOUND_MARK} 5.400 s (0.400 s, cost 16)'}
+    # The leader's status at 5.4 reports its search start and its first executable coalition (typed stamps).
+    typed = {1: {'search_started': 5.0, 'coalition_found': 5.4, 'found_cost': 16.0}}
     # An offer covering the helper arrives earlier than the status: the status decides.
     messages = [(5.2, 'robot_1', 'robot_2', OFFER, ('robot_1',))]
-    run = read_coalition_bag(coalition_bag(tmp_path / 'bag', statuses, messages, details))
+    run = read_coalition_bag(coalition_bag(tmp_path / 'bag', statuses, messages, typed))
     timeline = leader_timeline(run, 'robot_2')
     assert timeline.found_s == pytest.approx(0.4, abs=1e-6) and timeline.formed_s == pytest.approx(0.9, abs=1e-6)

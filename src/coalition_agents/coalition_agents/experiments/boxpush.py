@@ -38,6 +38,7 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 from collab_tools.experiments.plots import plt
 from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
 
+from ..core.agent_state import AgentState
 from ..core.errors import ConfigError
 from .coalition_bag import conflicting_commitments, kind_totals, read_coalition_bag
 
@@ -84,7 +85,7 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
     for robot, history in statuses.items():
         for status in history:
             cid = status.coalition_id
-            if cid and status.state == 'committed' and status.leader == robot and cid not in coalitions:
+            if cid and status.state is AgentState.COMMITTED and status.leader == robot and cid not in coalitions:
                 coalitions[cid] = {'leader': robot, 'members': list(status.members), 'cost': status.cost,
                                    'established_at_s': round(status.stamp, 3)}
     conflicts = [{'robot': robot, 'coalitions': held}
@@ -92,8 +93,8 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
     leaders = {robot: params for robot, params in agents.items() if params.get('task', 'none') != 'none'}
     time_to_form = {}
     for robot in leaders:
-        started = next((s.stamp for s in statuses[robot] if s.state == 'searching'), None)
-        formed = next((s.stamp for s in statuses[robot] if s.state == 'committed' and s.coalition_id), None)
+        started = next((s.stamp for s in statuses[robot] if s.state is AgentState.SEARCHING), None)
+        formed = next((s.stamp for s in statuses[robot] if s.state is AgentState.COMMITTED and s.coalition_id), None)
         time_to_form[robot] = None if started is None or formed is None else round(formed - started, 3)
     final = {robot: history[-1] if history else None for robot, history in statuses.items()}
 
@@ -106,18 +107,19 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
         distance = math.hypot(goal[0] - x, goal[1] - y)
         last = final[leader]
         return {'leader': leader, 'goal': goal, 'final_position': [round(x, 3), round(y, 3)],
-                'final_distance_m': round(distance, 3), 'completed': last is not None and last.state == 'completed',
+                'final_distance_m': round(distance, 3),
+                'completed': last is not None and last.state is AgentState.COMPLETED,
                 'reached': distance <= goal_tolerance, 'leader_detail': last.detail if last else ''}
 
     box_leader = next(r for r, p in leaders.items() if p['task'] == BOX_TASK)
     nav_leader = next(r for r, p in leaders.items() if p['task'] == NAVIGATION_TASK)
     reforms = {robot: sum(1 for a, b in zip(statuses[robot], statuses[robot][1:])
-                          if a.state == 'committed' and b.state == 'searching') for robot in leaders}
+                          if a.state is AgentState.COMMITTED and b.state is AgentState.SEARCHING) for robot in leaders}
     return {
         'coalitions': coalitions,
         'time_to_form_s': time_to_form,
         'reforms': reforms,
-        'robots': {robot: ({'state': last.state, 'coalition_id': last.coalition_id, 'detail': last.detail}
+        'robots': {robot: ({'state': last.state.label, 'coalition_id': last.coalition_id, 'detail': last.detail}
                            if last else {'state': 'no status', 'coalition_id': '', 'detail': ''})
                    for robot, last in final.items()},
         'box': outcome(box_leader, BOX),

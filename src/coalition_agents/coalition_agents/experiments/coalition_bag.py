@@ -6,15 +6,18 @@ The recorder of a simulated run keeps ``/coalition/channel``, every robot's inbo
 measure it (from the agents' own stamps: a status is stamped when it is published, a channel
 message when it leaves the link model, i.e. after its sampled delay):
 
+Statuses are read through their typed fields (``AgentStatus.state`` as
+:class:`~..core.agent_state.AgentState`, the search's stamps), never through ``detail`` (human
+text only). A zero stamp means "not (yet)" and is read as None.
+
 * :func:`leader_timeline` -- a leader's search, as the paper's Fig. 9 measures it:
 
-  - search start: the time in the leader's status detail (``search started at <t> s``), else its
-    first ``searching`` status;
-  - found: the leader's status that reports its first executable coalition (published when the
-    agent first instantiates one; the paper's "time to find the coalition solution"). Bags without
-    it (older runs) fall back to the first offer that, with the earlier ones, covers the members of
-    the coalition it later set up;
-  - formed: the leader's ``committed`` status (negotiation done). The node negotiates once its
+  - search start: the leader's ``search_started`` stamp (in every status after the start, so a
+    recorder that subscribed late still has it), else its first SEARCHING status;
+  - found: its ``coalition_found`` stamp, when the agent first instantiated an executable coalition
+    (the paper's "time to find the coalition solution"). Without it, the first offer that, with
+    the earlier ones, covers the members of the coalition it later set up;
+  - formed: the leader's first COMMITTED status (negotiation done). The node negotiates once its
     cheapest coalition has not improved for ``settle_time``, or at ``search_time`` at the latest:
     formed - found is settle_time plus the negotiation's round trips.
 
@@ -25,20 +28,18 @@ message when it leaves the link model, i.e. after its sampled delay):
 from __future__ import annotations
 
 import math
-import re
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
-from ..core.channel_codec import MessageKind
+from ..core.agent_state import AgentState
+from ..core.transport.codec import MessageKind
 
 CHANNEL = '/coalition/channel'
 STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
-#: the leader's status detail when it has its first executable coalition (schema_agent_node)
-FOUND_MARK = 'first executable coalition at'
-#: the start of the search in the leader's status detail (its own clock)
-SEARCH_START = re.compile(r'search started at (\d+(?:\.\d+)?) s')
+#: States that release a robot from the coalition it was committed to.
+RELEASED = (AgentState.IDLE, AgentState.FAILED, AgentState.SEARCHING)
 
 
 def status_topic(robot: str) -> str:
@@ -47,15 +48,24 @@ def status_topic(robot: str) -> str:
 
 @dataclass(frozen=True)
 class StatusRecord:
+    """One AgentStatus; stamps in s on the agent's clock, None where the message has a zero stamp."""
+
     stamp: float
     robot: str
-    state: str
+    state: AgentState
     task: str
     coalition_id: str
     leader: str
     members: tuple[str, ...]
     cost: float
     detail: str = ''
+    search_started: float | None = None
+    coalition_found: float | None = None
+    found_cost: float = 0.0
+    coalition_formed: float | None = None
+    task_finished: float | None = None
+    potential_solution: int = 0
+    reforms: int = 0
 
 
 @dataclass(frozen=True)
@@ -93,6 +103,19 @@ def _stamp(header) -> float:
     return header.stamp.sec + header.stamp.nanosec * 1e-9
 
 
+def _time(value) -> float | None:
+    """A builtin_interfaces/Time field in s; None for the zero stamp ("not (yet)")."""
+    return None if value.sec == 0 and value.nanosec == 0 else value.sec + value.nanosec * 1e-9
+
+
+def status_record(msg) -> StatusRecord:
+    """The record of one AgentStatus message."""
+    return StatusRecord(_stamp(msg.header), msg.robot, AgentState(msg.state), msg.task, msg.coalition_id, msg.leader,
+                        tuple(msg.members), float(msg.cost), msg.detail, _time(msg.search_started),
+                        _time(msg.coalition_found), float(msg.found_cost), _time(msg.coalition_formed),
+                        _time(msg.task_finished), int(msg.potential_solution), int(msg.reforms))
+
+
 def read_coalition_bag(bag: Path) -> CoalitionRun:
     """Statuses (``/<robot>/coalition``) and channel messages of a recorded run."""
     from collab_tools.core.bag_analysis import read_messages
@@ -101,7 +124,7 @@ def read_coalition_bag(bag: Path) -> CoalitionRun:
         if topic == CHANNEL or topic.startswith(CHANNEL + '/'):  # the shared topic and the inboxes
             run.ros_messages += 1
             stamp = _stamp(msg.header)
-            if hasattr(msg, 'acked_ids'):  # an AgentMessageBatch (agent_channel): stamped when it left the link
+            if hasattr(msg, 'acked_ids'):  # an AgentMessageBatch (transport.agent_channel): stamped when it left the link
                 run.messages.extend(MessageRecord(stamp, m.sender, m.receiver, int(m.kind), tuple(m.members),
                                                   float(m.cost)) for m in msg.messages)
                 run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
@@ -110,8 +133,7 @@ def read_coalition_bag(bag: Path) -> CoalitionRun:
                 run.messages.append(MessageRecord(stamp, msg.sender, msg.receiver, int(msg.kind),
                                                   tuple(msg.members), float(msg.cost)))
         elif topic.endswith('/coalition') and hasattr(msg, 'state'):
-            run.statuses.append(StatusRecord(_stamp(msg.header), msg.robot, msg.state, msg.task, msg.coalition_id,
-                                             msg.leader, tuple(msg.members), float(msg.cost), msg.detail))
+            run.statuses.append(status_record(msg))
     run.statuses.sort(key=lambda s: s.stamp)
     run.messages.sort(key=lambda m: m.stamp)
     return run
@@ -125,6 +147,7 @@ class LeaderTimeline:
     search_start: float | None
     found: float | None
     formed: float | None
+    #: its last state's label ('committed', ...), 'absent' without any status
     state: str
     members: tuple[str, ...]
     cost: float | None
@@ -148,13 +171,14 @@ class LeaderTimeline:
 def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
     """When ``leader`` started searching, found and set up its coalition (see the module docstring)."""
     statuses = run.of(leader)
-    # The agent's own record of its search start (its first 'searching' status may be missed by
+    # The agent's own record of its search start (its first SEARCHING status may be missed by
     # a recorder that subscribes to the latched status topic late), else that status's stamp.
-    started = next((match for s in statuses for match in [SEARCH_START.search(s.detail)] if match), None)
-    start = float(started.group(1)) if started else next((s.stamp for s in statuses if s.state == 'searching'), None)
+    start = next((s.search_started for s in statuses if s.search_started is not None), None)
+    if start is None:
+        start = next((s.stamp for s in statuses if s.state is AgentState.SEARCHING), None)
     final = statuses[-1] if statuses else None
-    committed = next((s for s in statuses if s.state == 'committed' and s.leader == leader), None)
-    found = next((s.stamp for s in statuses if FOUND_MARK in s.detail), None)
+    committed = next((s for s in statuses if s.state is AgentState.COMMITTED and s.leader == leader), None)
+    found = next((s.coalition_found for s in statuses if s.coalition_found is not None), None)
     if committed is not None and found is None:
         helpers = set(committed.members) - {leader}
         covered: set[str] = set()
@@ -169,7 +193,7 @@ def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
         if not helpers:
             found = committed.stamp
     return LeaderTimeline(leader, start, found, None if committed is None else committed.stamp,
-                          final.state if final else 'absent',
+                          final.state.label if final else 'absent',
                           committed.members if committed else (), committed.cost if committed else None,
                           committed.coalition_id if committed else '')
 
@@ -179,23 +203,24 @@ def commitments(run: CoalitionRun) -> dict[str, list[str]]:
     shows up in :func:`conflicting_commitments`)."""
     found: dict[str, list[str]] = defaultdict(list)
     for status in run.statuses:
-        if status.state == 'committed' and status.coalition_id and status.coalition_id not in found[status.robot]:
+        if (status.state is AgentState.COMMITTED and status.coalition_id
+                and status.coalition_id not in found[status.robot]):
             found[status.robot].append(status.coalition_id)
     return dict(found)
 
 
 def conflicting_commitments(run: CoalitionRun) -> dict[str, list[str]]:
     """robot -> coalitions it was committed to while still committed to another: a status with a
-    new coalition id without an idle/failed status (release) in between."""
+    new coalition id without a releasing status (:data:`RELEASED`) in between."""
     conflicts: dict[str, list[str]] = {}
     for robot in run.robots():
         current = ''
         for status in run.of(robot):
-            if status.state == 'committed' and status.coalition_id:
+            if status.state is AgentState.COMMITTED and status.coalition_id:
                 if current and status.coalition_id != current:
                     conflicts.setdefault(robot, [current]).append(status.coalition_id)
                 current = status.coalition_id
-            elif status.state in ('idle', 'failed', 'searching'):
+            elif status.state in RELEASED:
                 current = ''
     return conflicts
 
@@ -235,6 +260,6 @@ def kind_totals(run: CoalitionRun) -> dict[str, int]:
 
 
 
-__all__ = ['CHANNEL', 'CoalitionRun', 'FOUND_MARK', 'LeaderTimeline', 'MessageRecord', 'SEARCH_START', 'STATUS_TYPE',
-           'StatusRecord', 'commitments', 'conflicting_commitments', 'kind_totals', 'leader_timeline', 'message_counts',
-           'read_coalition_bag', 'status_topic']
+__all__ = ['CHANNEL', 'CoalitionRun', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE', 'StatusRecord',
+           'commitments', 'conflicting_commitments', 'kind_totals', 'leader_timeline', 'message_counts',
+           'read_coalition_bag', 'status_record', 'status_topic']

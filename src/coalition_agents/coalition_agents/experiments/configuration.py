@@ -65,7 +65,8 @@ def _point(value: object, path: str) -> tuple[float, float]:
     items = require_list(value, path, ConfigError)
     if len(items) != 2:
         raise ConfigError(f'{path}: must be [x, y] (got {len(items)} numbers)')
-    return check_number(items[0], f'{path}[0]', error=ConfigError), check_number(items[1], f'{path}[1]', error=ConfigError)
+    x, y = (check_number(item, f'{path}[{i}]', error=ConfigError) for i, item in enumerate(items))
+    return x, y
 
 
 def _robot_name(value: object, path: str, team: Mapping[str, RobotCapabilities]) -> str:
