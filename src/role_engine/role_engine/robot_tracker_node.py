@@ -16,7 +16,7 @@ The team (names, colours, radii, heights) comes from the role engine's latched
 no file. A robot is published once its heading marker has been seen; while the marker is hidden
 its last seen heading is kept.
 
-Parameters: ``camera`` and ``team_namespace`` read-only; the colour matching thresholds
+Parameters (core.node_settings.TRACKER_SETTINGS): ``camera`` and ``team_namespace`` read-only; the colour matching thresholds
 ``chroma_tolerance``, ``min_brightness`` and ``min_area_px`` are dynamic (the next frame uses them).
 """
 from __future__ import annotations
@@ -34,17 +34,9 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.top_camera import TopCamera
 
 from .core.errors import RoleEngineError
+from .core.node_settings import TRACKER_SETTINGS, tracking_settings
 from .core.tracking import TeamTracker, TrackedTarget, TrackingSettings
 from .role_messages import pose_msg, team_of
-
-#: name -> (description, constraints): the dynamic colour matching thresholds.
-TRACKING_PARAMETERS: dict[str, tuple[str, dict]] = {
-    'chroma_tolerance': ("largest chromaticity distance (rgb / (r + g + b)) of a robot's pixel from its colour; "
-                         'from the next frame', {'low': 0.0, 'low_open': True, 'high': 1.0}),
-    'min_brightness': ('r + g + b (0..765) below which a pixel is too dark to match a colour (and dark enough '
-                       'to be the heading marker); from the next frame', {'low': 0.0, 'high': 765.0}),
-    'min_area_px': ('smallest blob (pixels) taken for a robot; from the next frame', {'low': 1}),
-}
 
 
 class RobotTracker(Node):
@@ -52,13 +44,11 @@ class RobotTracker(Node):
         super().__init__('robot_tracker')
         params = NodeParameters(self)
         self.names = TeamNode(self, params)
-        camera = params.declare('camera', 'top_camera', "the top camera's namespace, relative to the team namespace",
-                                check=lambda v: None if v.strip('/') else 'must be a non-empty namespace')
-        defaults = TrackingSettings()
-        for name, (description, constraints) in TRACKING_PARAMETERS.items():
-            params.declare(name, getattr(defaults, name), description,
-                           on_change=lambda value, name=name: self._retune(name, value), **constraints)
-        self.settings = TrackingSettings(**{name: params[name] for name in TRACKING_PARAMETERS})
+        dynamic = [s.name for s in TRACKER_SETTINGS if s.dynamic]
+        values = params.declare_schema(TRACKER_SETTINGS, on_change={
+            name: (lambda value, name=name: self._retune(name, value)) for name in dynamic})
+        camera = values['camera']
+        self.settings = tracking_settings(values)
         self.tracker: TeamTracker | None = None
         self.frame_id = ''
         self.pose_pubs: dict[str, object] = {}

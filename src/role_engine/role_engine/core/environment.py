@@ -25,7 +25,9 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from pybullet_bridge.core.fields import Fields, fail, read_yaml_file
+from collab_tools.core.fields import Fields, fail, read_yaml_file
+# TRANSITION (issue 12): the bridge helper is moving the obstacle section's pure part (this reader
+# included) out of the module that spawns bodies; import it from there once it lands.
 from pybullet_bridge.core.obstacles import read_grey_image
 
 from .errors import RoleEngineError
@@ -186,15 +188,16 @@ def load_map_file(path: str | Path) -> Environment:
     """Read a map YAML (format in the module docstring) and its occupancy image."""
     path = Path(path)
     where = str(path)
-    data = read_yaml_file(path, 'map file')
-    fields = Fields(data, where, allowed=MAP_FILE_FIELDS)
+    data = read_yaml_file(path, 'map file', RoleEngineError)
+    fields = Fields(data, where, allowed=MAP_FILE_FIELDS, error=RoleEngineError)
     grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)
     origin = fields.vector('origin', 2)
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)
     border = fields.raw('border_is_obstacle', True)
     if not isinstance(border, bool):
-        raise fail(fields.path_of('border_is_obstacle'), f'must be true or false (got {border!r})')
+        raise fail(fields.path_of('border_is_obstacle'), f'must be true or false (got {border!r})',
+                   RoleEngineError)
     name = fields.string('name', path.stem)
     fields.raw('description', '')
     return Environment.from_image(grey, resolution, origin, occupied_below=threshold,

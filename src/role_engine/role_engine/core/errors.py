@@ -6,15 +6,16 @@ from typing import Any
 
 import numpy as np
 
+from collab_tools.core.errors import ConfigurationError
 
-class RoleEngineError(ValueError):
-    """Invalid input to the role engine core.
+
+class RoleEngineError(ConfigurationError):
+    """Invalid input to the role engine core (a :class:`ConfigurationError`, so a ``ValueError``).
 
     The message starts with the name or dotted path of the offending value and says the
     allowed range, e.g. ``robot_type.radius: must be a finite number >= 0 (got -1.0)``.
-    Configuration files are read with the bridge's field readers
-    (:mod:`pybullet_bridge.core.fields`), whose errors are ``ScenarioError``; both are
-    ``ValueError`` subclasses with the same message style.
+    Configuration files are read with the shared field readers (:mod:`collab_tools.core.fields`,
+    ``error=RoleEngineError``), so their errors are this class too.
     """
 
 

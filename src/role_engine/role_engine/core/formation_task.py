@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pybullet_bridge.core.fields import Fields, fail, join_path, read_yaml_file
+from collab_tools.core.fields import Fields, fail, join_path, read_yaml_file
 
 from .controller import TrackingGains
 from .environment import RobotEnvironment, RobotType
@@ -102,20 +102,23 @@ def load_formation_task(path: str | Path, *, check_scenario: bool = True) -> For
     takes the team and the map from the role engine's topics, on a machine without the scenario)."""
     path = Path(path)
     where = str(path)
-    data = read_yaml_file(path, 'settings file')
-    fields = Fields(data, where, allowed=TOP_LEVEL_KEYS)
+    data = read_yaml_file(path, 'settings file', RoleEngineError)
+    fields = Fields(data, where, allowed=TOP_LEVEL_KEYS, error=RoleEngineError)
     scenario = (path.parent / fields.string('scenario')).resolve()
     if check_scenario and not scenario.is_file():
-        raise fail(fields.path_of('scenario'), f"scenario file '{scenario}' does not exist")
+        raise fail(fields.path_of('scenario'), f"scenario file '{scenario}' does not exist",
+                   RoleEngineError)
     formation = dict(Fields(fields.raw('formation'), fields.path_of('formation'),
                             allowed=('type', 'center', 'size', 'diameter', 'side', 'width', 'length',
-                                     'rotation')).data)
+                                     'rotation'), error=RoleEngineError).data)
     if 'count' in formation or formation.get('type') == 'points':
-        raise fail(fields.path_of('formation'), 'the count follows from the robots; give type, center, size')
-    trajectory = Fields(fields.raw('trajectory'), fields.path_of('trajectory'), allowed=('total_time', 'states'))
+        raise fail(fields.path_of('formation'), 'the count follows from the robots; give type, center, size',
+                   RoleEngineError)
+    trajectory = Fields(fields.raw('trajectory'), fields.path_of('trajectory'), allowed=('total_time', 'states'),
+                        error=RoleEngineError)
     gp = dict(Fields(fields.raw('gp', {}), fields.path_of('gp'),
                      allowed=[name for name in GPPlannerConfig.__dataclass_fields__
-                              if name not in GP_FIELDS_SET_HERE]).data)
+                              if name not in GP_FIELDS_SET_HERE], error=RoleEngineError).data)
     task = FormationTask(
         source=path, scenario=scenario, formation=formation,
         total_time=trajectory.number('total_time', gt=0.0), states=trajectory.integer('states', ge=2),
@@ -141,7 +144,8 @@ def load_formation_task(path: str | Path, *, check_scenario: bool = True) -> For
 
 
 def _tracking_gains(data, path: str) -> TrackingGains:
-    fields = Fields(data if data is not None else {}, path, allowed=tuple(TrackingGains.__dataclass_fields__))
+    fields = Fields(data if data is not None else {}, path, allowed=tuple(TrackingGains.__dataclass_fields__),
+                    error=RoleEngineError)
     defaults = TrackingGains()
     return TrackingGains(**{name: fields.number(name, getattr(defaults, name), gt=0.0)
                             for name in TrackingGains.__dataclass_fields__})

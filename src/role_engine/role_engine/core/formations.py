@@ -23,7 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from pybullet_bridge.core.fields import Fields, check_vector, fail, join_path, require_list
+from collab_tools.core.fields import Fields, check_vector, fail, join_path, require_list
+
+from .errors import RoleEngineError
 
 FORMATION_TYPES = ('circle', 'square', 'line', 'diamond', 'points')
 _SIZE_FIELD = {'circle': 'radius', 'square': 'side', 'line': 'length', 'diamond': 'size'}
@@ -71,19 +73,21 @@ _BUILDERS = {'circle': circle_formation, 'square': square_formation,
 
 def parse_formation(data: Any, path: str = 'formation') -> np.ndarray:
     """(count, 2) destination points of a formation mapping (format in the module docstring)."""
-    kind = Fields(data, path, allowed=_ALL_FIELDS).string('type')
+    kind = Fields(data, path, allowed=_ALL_FIELDS, error=RoleEngineError).string('type')
     if kind not in FORMATION_TYPES:
-        raise fail(join_path(path, 'type'), f"unknown formation '{kind}' (allowed: {', '.join(FORMATION_TYPES)})")
+        raise fail(join_path(path, 'type'), f"unknown formation '{kind}' (allowed: {', '.join(FORMATION_TYPES)})",
+                   RoleEngineError)
     if kind == 'points':
-        fields = Fields(data, path, allowed=('type', 'points'))
-        items = require_list(fields.raw('points'), fields.path_of('points'))
+        fields = Fields(data, path, allowed=('type', 'points'), error=RoleEngineError)
+        items = require_list(fields.raw('points'), fields.path_of('points'), RoleEngineError)
         if not items:
-            raise fail(fields.path_of('points'), 'must list at least one point [x, y]')
-        points = np.array([check_vector(item, join_path(fields.path_of('points'), i), 2)
+            raise fail(fields.path_of('points'), 'must list at least one point [x, y]', RoleEngineError)
+        points = np.array([check_vector(item, join_path(fields.path_of('points'), i), 2, error=RoleEngineError)
                            for i, item in enumerate(items)])
     else:
         size_field = _SIZE_FIELD[kind]
-        fields = Fields(data, path, allowed=('type', 'center', size_field, 'count', 'rotation'))
+        fields = Fields(data, path, allowed=('type', 'center', size_field, 'count', 'rotation'),
+                        error=RoleEngineError)
         points = _BUILDERS[kind](fields.vector('center', 2), fields.number(size_field, gt=0.0),
                                  fields.integer('count', ge=1, le=10000), fields.number('rotation', 0.0))
     _check_distinct(points, path)
@@ -96,4 +100,4 @@ def _check_distinct(points: np.ndarray, path: str) -> None:
         for j in range(i + 1, len(points)):
             if np.allclose(points[i], points[j], atol=1e-9):
                 raise fail(path, f'destinations {i} and {j} coincide at '
-                                 f'({points[i][0]:.3f}, {points[i][1]:.3f})')
+                                 f'({points[i][0]:.3f}, {points[i][1]:.3f})', RoleEngineError)

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from pybullet_bridge.core.fields import Fields
+from collab_tools.core.fields import Fields
 
 from .conflict import SharedRole
 from .errors import RoleEngineError, check_real
@@ -61,7 +61,8 @@ class ProblemSettings:
                      silence_timeout: float = 4.0) -> 'ProblemSettings':
         """From a settings-file mapping (``silence_timeout`` is a top-level field of the task)."""
         fields = Fields(data if data is not None else {}, path,
-                        allowed=('stuck_distance', 'stuck_time', 'off_role_distance', 'off_role_grace'))
+                        allowed=('stuck_distance', 'stuck_time', 'off_role_distance', 'off_role_grace'),
+                        error=RoleEngineError)
         return cls(silence_timeout=silence_timeout,
                    stuck_distance=fields.number('stuck_distance', cls.stuck_distance, gt=0.0),
                    stuck_time=fields.number('stuck_time', cls.stuck_time, gt=0.0),

@@ -46,7 +46,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from pybullet_bridge.core.fields import Fields
+from collab_tools.core.fields import Fields
 
 from .conflict import SharedRole, find_conflicts
 from .environment import RobotEnvironment
@@ -92,15 +92,15 @@ class AvoidanceSettings:
     def from_mapping(cls, data: Any, path: str = 'robot_avoidance') -> 'AvoidanceSettings':
         """From a settings-file mapping; unknown keys and bad values name ``path.field``."""
         fields = Fields(data if data is not None else {}, path,
-                        allowed=('clearance', 'sigma', 'interpolation', 'detour_scales'))
+                        allowed=('clearance', 'sigma', 'interpolation', 'detour_scales'), error=RoleEngineError)
         scales = fields.raw('detour_scales', list(cls.detour_scales))
         if not isinstance(scales, (list, tuple)):
             raise RoleEngineError(f'{path}.detour_scales: must be a list of numbers > 0 (got {scales!r})')
-        try:
-            return cls(clearance=fields.number('clearance', cls.clearance, ge=0.0),
-                       sigma=fields.number('sigma', cls.sigma, gt=0.0),
-                       interpolation=fields.integer('interpolation', cls.interpolation, ge=0),
-                       detour_scales=tuple(scales))
+        values = dict(clearance=fields.number('clearance', cls.clearance, ge=0.0),
+                      sigma=fields.number('sigma', cls.sigma, gt=0.0),
+                      interpolation=fields.integer('interpolation', cls.interpolation, ge=0))
+        try:   # the detour scales are checked by __post_init__, whose errors say robot_avoidance
+            return cls(**values, detour_scales=tuple(scales))
         except RoleEngineError as error:
             raise RoleEngineError(str(error).replace('robot_avoidance', path, 1)) from None
 
