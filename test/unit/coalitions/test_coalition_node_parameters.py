@@ -84,7 +84,7 @@ def test_retry_policy_from_the_parameters():
 
 def test_boxpush_agents_are_the_robots_of_their_namespaces(config_dir):
     from collab_tools.orchestration.experiment import load_experiment
-    from coalition_agents.boxpush_experiment import agent_nodes
+    from coalition_agents.experiments.boxpush import agent_nodes
     agents = agent_nodes(load_experiment(config_dir.parent / 'experiments' / 'coalition_boxpush.yaml'))
     assert sorted(agents) == ['localizer_l1', 'localizer_l2', 'pusher_g1', 'pusher_r1', 'pusher_r2']
     assert agents['pusher_g1']['exit_after'] == ['pusher_r2'] and agents['pusher_g1']['robot'] == 'pusher_g1'
