@@ -1,5 +1,5 @@
 """Simulated coalition scenarios as data: robot placements -> bridge scenario, team capability
-file and the hosted agents' parameter file (used by ``coalition_agents.sim_experiments``).
+file and the hosted agents' parameter file (used by the sim experiments, ``coalition_agents.experiments``).
 
 * :func:`column_placements` -- the paper's Fig. 9 column (Section V-A-4): ``robots`` robots in a
   line along +x, all facing +x (the front), ``spacing_m`` apart; only the front robot (robot_1)
