@@ -179,3 +179,21 @@ def test_benchmark_quick(config_dir, tmp_path):
     assert {'benchmark', 'settings', 'referents', 'robots', 'wall_s'} <= set(stored)
     assert (tmp_path / 'coalition_bench.png').stat().st_size > 10_000
     assert len(lines) == 3 + 2 * 2 and lines[-1].startswith('[bench coalition 7/7] clusters 5 robots')
+
+
+# --- The experiments' entries ------------------------------------------------------------------
+
+def test_experiments_are_listed_with_their_options():
+    from coalition_agents.experiments import EXPERIMENTS
+    options = {e.name: [o.flag for o in e.options] for e in EXPERIMENTS}
+    assert options == {'coalition-table3': [], 'coalition-fig7': ['--mode', '--loss', '--scenario'],
+                       'coalition-fig9': ['--robots'], 'coalition-boxpush': []}
+    assert all('IQ-ASyMTRe' in e.paper and e.runner() for e in EXPERIMENTS)
+
+
+@pytest.mark.parametrize('options, message', [({'mode': 'sim', 'loss': 1.5}, r'--loss: must be in \[0, 1\]'),
+                                              ({'mode': 'fast'}, '--mode: must be one of core, sim')])
+def test_fig7_bad_options_are_refused_before_anything_runs(config_dir, tmp_path, options, message):
+    with pytest.raises(ConfigError, match=message):
+        run_named('coalition-fig7', config_dir, tmp_path / 'run', **options)
+    assert not (tmp_path / 'run' / 'results.json').exists()

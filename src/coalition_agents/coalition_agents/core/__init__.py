@@ -58,6 +58,8 @@ Distinct Requests, Lemma 4.3                 requests (RequestLedger), coalition
 Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task, plan_reply,
                                              local_coalition_solutions, offer, coalition)
 Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
+Sec. V-A-2 / Fig. 7 fiducial FOV and range  geometric_sensing (GeometricSensing, FieldOfView,
+                                             configuration_blind = Table V's 'possible')
 Algorithm 2 (one robot, distributed)         agent (SchemaAgent, coalition_cost_from_offers);
                                              the schema_agent node drives it
 Live sensor reports -> sensed instances      live_sensing (LiveSensing)

@@ -45,7 +45,7 @@ EXPERIMENTS = (
                (Option('--robots', 'column sizes to run (default: config/coalitions/scenarios/fig9_column.yaml)',
                        type=int, nargs='+', metavar='N'),)),
     Experiment('coalition-boxpush', f'{PAPER}, Sec. V-A-5, Fig. 10/11',
-               'box pushing + navigation with executable coalitions, 0 and 20 % loss (sim)',
+               'box pushing + navigation with executable coalitions, message loss 0 and 0.2 (sim)',
                'coalition_agents.experiments.boxpush'),
 )
 
