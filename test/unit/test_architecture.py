@@ -29,15 +29,15 @@ ALGORITHM_CORES = ('sgcm.core', 'role_engine.core', 'coalition_agents.core', 'co
 #: and state machines that must stay importable without the simulator).
 SIMULATING = {
     'pybullet_bridge.core.scene', 'pybullet_bridge.core.camera', 'pybullet_bridge.core.sensors',
-    'pybullet_bridge.core.mobile_robot', 'pybullet_bridge.core.obstacles', 'pybullet_bridge.core.tabletop',
-    'pybullet_bridge.core.movable_boxes', 'pybullet_bridge.core.arm', 'pybullet_bridge.core.arm_models',
-    'pybullet_bridge.core.targets',
+    'pybullet_bridge.core.mobile_robot_body', 'pybullet_bridge.core.passive_bodies',
+    'pybullet_bridge.core.arm.kinematics', 'pybullet_bridge.core.arm.segments', 'pybullet_bridge.core.arm.gripper',
+    'pybullet_bridge.core.arm.planning', 'pybullet_bridge.core.arm.recovery', 'pybullet_bridge.core.arm.simulation',
 }
 #: Modules that process images with OpenCV (perception, codecs, rendering helpers).
 IMAGE_PROCESSING = {
     'collab_tools.core.image_codec', 'sgcm.core.perception', 'role_engine.core.top_view',
     'role_engine.core.tracking', 'role_engine.core.occupancy', 'role_engine.core.sdf',
-    'pybullet_bridge.core.camera',
+    'pybullet_bridge.core.occupancy_map',
 }
 
 

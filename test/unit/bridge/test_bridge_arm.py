@@ -11,7 +11,8 @@ import yaml
 
 from bridge_core_helpers import SCENARIO_DIR
 from pybullet_bridge.core.arm import Outcome
-from pybullet_bridge.core.arm_models import ARM_MODELS, ArmKinematics, model_path, top_down_orientation
+from pybullet_bridge.core.arm.kinematics import ArmKinematics, model_path, top_down_orientation
+from pybullet_bridge.core.arm.models import ARM_MODELS
 from pybullet_bridge.core.errors import ScenarioError
 from pybullet_bridge.core.placement import region_to_pixels
 from pybullet_bridge.core.scenario import parse_scenario

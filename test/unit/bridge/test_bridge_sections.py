@@ -6,8 +6,8 @@ import pybullet as p
 import pytest
 
 from bridge_core_helpers import scenario_dict
+from collab_tools.core.fields import Fields, join_path, require_list
 from pybullet_bridge.core.errors import ScenarioError
-from pybullet_bridge.core.fields import Fields, join_path, require_list
 from pybullet_bridge.core.scenario import (
     parse_scenario, register_section, registered_sections, unregister_section,
 )
@@ -40,8 +40,8 @@ class Marker(SceneEntity):
 
 def parse_markers(value, context):
     markers = []
-    for index, item in enumerate(require_list(value, context.path)):
-        fields = Fields(item, join_path(context.path, index), allowed=('name', 'position'))
+    for index, item in enumerate(require_list(value, context.path, ScenarioError)):
+        fields = Fields(item, join_path(context.path, index), allowed=('name', 'position'), error=ScenarioError)
         markers.append(Marker(fields.name(), fields.vector('position', 2), context.seed))
     return markers
 

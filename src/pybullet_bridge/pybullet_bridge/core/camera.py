@@ -15,7 +15,7 @@ import numpy as np
 import pybullet as p
 from collab_tools.core.camera_geometry import LOOKING_DOWN_XYZW, TopViewGeometry
 
-from .scenario import CameraConfig
+from .world import CameraConfig
 
 #: pybullet packs the link index above bit 24 of segmentation values.
 _OBJECT_UID_MASK = (1 << 24) - 1

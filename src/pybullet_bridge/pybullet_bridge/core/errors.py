@@ -1,7 +1,8 @@
 """Errors raised by the simulation core."""
+from collab_tools.core.errors import ConfigurationError
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ConfigurationError):
     """A scenario file or dict is invalid.
 
     The message starts with the dotted path of the offending field, e.g.

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 from collab_tools.core.tf_tree import Pose
 
-from .arm import Arm
+from .arm.definition import Arm
+from .entity import BodyStateData
 from .mobile_robot import MobileRobot, yaw_quaternion
-from .scene import BodyStateData
 from .sensor_config import BUMPER, FIDUCIAL, LASER
 from .tabletop import Table
 

@@ -5,53 +5,51 @@ pushes it, against Coulomb friction with the ground (pybullet multiplies the two
 bodies' friction coefficients; the ground's is 1, so ``friction`` is the box-ground
 coefficient). Robots themselves have zero friction, so a box slides along a robot's
 face rather than being dragged sideways. This is the paper's box pushing task (Sec. V-5).
+
+Definition and parsing only; :mod:`.passive_bodies` spawns it in pybullet.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
-import pybullet as p
+from collab_tools.core.fields import Fields, fail, join_path, require_list
 
-from .fields import Fields, fail, join_path, require_list
-from .scenario import SectionContext, register_section
-from .scene import SceneEntity
+from .entity import EntityDefinition
+from .errors import ScenarioError
+from .sections import SectionContext
 
 DEFAULT_MOVABLE_BOX_COLOR = (0.55, 0.3, 0.7)
 
 
-class MovableBox(SceneEntity):
+@dataclass(eq=False)
+class MovableBox(EntityDefinition):
     """A dynamic box resting on the ground."""
 
     kind = 'movable_box'
 
-    def __init__(self, name: str, center: tuple[float, float], size: tuple[float, float], height: float,
-                 mass: float, friction: float, yaw: float = 0.0,
-                 color: tuple[float, float, float] = DEFAULT_MOVABLE_BOX_COLOR, config_path: str = ''):
-        self.name = name
-        self.center = (float(center[0]), float(center[1]))
-        self.size = (float(size[0]), float(size[1]))
-        self.height = float(height)
-        self.mass = float(mass)
-        self.friction = float(friction)
-        self.yaw = float(yaw)
-        self.color = tuple(color)
-        self.config_path = config_path
+    name: str
+    center: tuple[float, float]
+    size: tuple[float, float]
+    height: float
+    mass: float
+    friction: float
+    yaw: float = 0.0
+    color: tuple[float, float, float] = DEFAULT_MOVABLE_BOX_COLOR
+    config_path: str = ''
+
+    def __post_init__(self):
+        self.center = (float(self.center[0]), float(self.center[1]))
+        self.size = (float(self.size[0]), float(self.size[1]))
+        self.height = float(self.height)
+        self.mass = float(self.mass)
+        self.friction = float(self.friction)
+        self.yaw = float(self.yaw)
+        self.color = tuple(self.color)
 
     def half_diagonal(self) -> float:
         return math.hypot(*self.size) / 2.0
-
-    def spawn(self, client: int) -> list[int]:
-        half_extents = [self.size[0] / 2.0, self.size[1] / 2.0, self.height / 2.0]
-        collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half_extents, physicsClientId=client)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half_extents, rgbaColor=[*self.color, 1.0],
-                                     physicsClientId=client)
-        body = p.createMultiBody(
-            baseMass=self.mass, baseCollisionShapeIndex=collision, baseVisualShapeIndex=visual,
-            basePosition=[*self.center, self.height / 2.0],
-            baseOrientation=p.getQuaternionFromEuler([0.0, 0.0, self.yaw]), physicsClientId=client)
-        p.changeDynamics(body, -1, lateralFriction=self.friction, restitution=0.0, physicsClientId=client)
-        return [body]
 
 
 def parse_movable_boxes(value: Any, context: SectionContext) -> list[MovableBox]:
@@ -59,10 +57,10 @@ def parse_movable_boxes(value: Any, context: SectionContext) -> list[MovableBox]
     if value is None:
         return []
     boxes: list[MovableBox] = []
-    for index, item in enumerate(require_list(value, context.path)):
+    for index, item in enumerate(require_list(value, context.path, error=ScenarioError)):
         path = join_path(context.path, index)
         fields = Fields(item, path, allowed=('name', 'center', 'size', 'height', 'mass', 'friction', 'yaw',
-                                             'color'))
+                                             'color'), error=ScenarioError)
         box = MovableBox(
             name=fields.name('name'),
             center=fields.vector('center', 2),  # type: ignore[arg-type]
@@ -74,9 +72,7 @@ def parse_movable_boxes(value: Any, context: SectionContext) -> list[MovableBox]
             color=fields.color('color', DEFAULT_MOVABLE_BOX_COLOR), config_path=path)
         if not context.world.contains(*box.center, margin=box.half_diagonal()):
             raise fail(fields.path_of('center'), f'box (centre {list(box.center)}, size {list(box.size)}) '
-                       f'must lie inside world.bounds {list(context.world.bounds)}')
+                       f'must lie inside world.bounds {list(context.world.bounds)}', error=ScenarioError)
         boxes.append(box)
     return boxes
 
-
-register_section('movable_boxes', parse_movable_boxes)

@@ -19,11 +19,22 @@ obstacles (the arm is at home when the image is taken; the object leaves its spo
 from __future__ import annotations
 
 import math
-from typing import Iterable
+from typing import Iterable, Protocol
 
 import numpy as np
 
-from .camera import TopViewCamera
+
+class PixelCamera(Protocol):
+    """The camera model the pixel test needs (:class:`.camera.TopViewCamera` is one)."""
+
+    width: int
+    height: int
+    focal: float
+    altitude: float
+
+    def world_to_pixel(self, x: float, y: float, z: float = 0.0) -> tuple[float, float]: ...
+
+    def pixel_to_world(self, u: float, v: float, z: float = 0.0) -> tuple[float, float]: ...
 
 PixelRect = tuple[int, int, int, int]  # u_min v_min u_max v_max, inclusive
 
@@ -68,7 +79,7 @@ def find_free_pixel(labels: np.ndarray, obstacle_labels: Iterable[int], region: 
     return int(u_min + free_cols[0] + half_u), int(v_min + free_rows[0] + half_v)
 
 
-def region_to_pixels(camera: TopViewCamera, region: tuple[float, float, float, float],
+def region_to_pixels(camera: PixelCamera, region: tuple[float, float, float, float],
                      z: float) -> PixelRect | None:
     """Inclusive rectangle of the pixels lying wholly inside the world rectangle ``region``
     (on the plane at height ``z``), clipped to the image; None if no pixel is.
@@ -89,12 +100,12 @@ def region_to_pixels(camera: TopViewCamera, region: tuple[float, float, float, f
     return u_min, v_min, u_max, v_max
 
 
-def meters_to_pixels(camera: TopViewCamera, length: float, z: float) -> float:
+def meters_to_pixels(camera: PixelCamera, length: float, z: float) -> float:
     """Length in pixels of ``length`` metres lying on the plane at height ``z``."""
     return length * camera.focal / (camera.altitude - z)
 
 
-def find_place_position(camera: TopViewCamera, labels: np.ndarray, obstacle_labels: Iterable[int],
+def find_place_position(camera: PixelCamera, labels: np.ndarray, obstacle_labels: Iterable[int],
                         region: tuple[float, float, float, float], half_extent: float,
                         z: float) -> tuple[float, float] | None:
     """World (x, y) on the plane at height ``z`` where a square footprint of half side ``half_extent``

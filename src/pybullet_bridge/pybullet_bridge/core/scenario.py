@@ -104,7 +104,7 @@ Schema (defaults shown; fields without a default are required)::
         mass: 0.05                    # kg, (0, 100]
         color: [0.85, 0.12, 0.12]     # required, r g b in [0, 1]
         yaw: 0.0                      # rad
-    arms:                             # optional list of fixed-base arms (core/arm.py)
+    arms:                             # optional list of fixed-base arms (core/arm/)
       - name: leader_arm              # required, unique scene name (ROS namespace)
         model: panda                  # required: panda | kuka_iiwa | xarm6 (pybullet_data URDFs)
         base: [-0.565, 0.0, 0.0]      # required, x y (m) yaw (rad); the pedestal must lie inside
@@ -151,108 +151,41 @@ parser sees the entities of the sections parsed before it in
 """
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Callable, Mapping
+from typing import Mapping
 
+from collab_tools.core.fields import Fields, fail, join_path, read_yaml_file, type_name
+
+from .arm.definition import parse_arms
 from .errors import ScenarioError
-from .fields import Fields, check_name, fail, join_path, read_yaml_file, require_mapping, type_name
+from .mobile_robot import parse_mobile_robots
+from .movable_boxes import parse_movable_boxes
+from .obstacles import parse_obstacles
+from .robot_types import BUILTIN_ROBOT_TYPES, ROBOT_TYPE_FIELDS, parse_robot_types
+from .sections import (TOP_LEVEL_KEYS, SectionContext, SectionParser, register_section,
+                       registered_sections, section_parsers, unregister_section)
+from .tabletop import parse_cubes, parse_tables
+from .targets import parse_targets
+from .world import (DEFAULT_BOUNDS, DEFAULT_PHYSICS_DT, WALLS_ENTITY_NAME, CameraConfig, WallConfig,
+                    WorldConfig, parse_camera, parse_world)
 
-if TYPE_CHECKING:
-    from .scene import SceneEntity
-
-#: Fields a robot type defines; each may be overridden per robot.
-ROBOT_TYPE_FIELDS = (
-    'radius', 'height', 'mass',
-    'max_linear_velocity', 'max_angular_velocity',
-    'max_linear_acceleration', 'max_angular_acceleration',
-    'command_timeout',
+#: The built-in sections in label order (their parsers only validate: no simulator here).
+BUILTIN_SECTIONS: tuple[tuple[str, SectionParser], ...] = (
+    ('mobile_robots', parse_mobile_robots), ('obstacles', parse_obstacles), ('tables', parse_tables),
+    ('cubes', parse_cubes), ('arms', parse_arms), ('targets', parse_targets),
+    ('movable_boxes', parse_movable_boxes),
 )
+for _key, _parser in BUILTIN_SECTIONS:
+    register_section(_key, _parser)
 
-BUILTIN_ROBOT_TYPES: dict[str, dict[str, float]] = {
-    # Adept MobileRobots Pioneer 3-DX datasheet: 455 mm wide (radius ~0.228 m),
-    # 237 mm tall, 9 kg, 1.2 m/s, 300 deg/s. The ARIA firmware default
-    # accelerations (0.3 m/s^2, 100 deg/s^2) are sluggish for teleoperated
-    # experiments, so we use the firmware's reachable 1.0 m/s^2 and 3.0 rad/s^2.
-    'pioneer_3dx': {
-        'radius': 0.23, 'height': 0.24, 'mass': 9.0,
-        'max_linear_velocity': 1.2, 'max_angular_velocity': 5.24,
-        'max_linear_acceleration': 1.0, 'max_angular_acceleration': 3.0,
-        'command_timeout': 0.5,
-    },
-    # ROBOTIS TurtleBot3 Burger e-Manual: 138 x 178 x 192 mm, 1 kg,
-    # 0.22 m/s, 2.84 rad/s; radius 0.105 m and the accelerations
-    # (acc_lim_x 2.5, acc_lim_theta 3.2) are the turtlebot3_navigation2 burger values.
-    'turtlebot3_burger': {
-        'radius': 0.105, 'height': 0.192, 'mass': 1.0,
-        'max_linear_velocity': 0.22, 'max_angular_velocity': 2.84,
-        'max_linear_acceleration': 2.5, 'max_angular_acceleration': 3.2,
-        'command_timeout': 0.5,
-    },
-}
-
-DEFAULT_PHYSICS_DT = 1.0 / 240.0  # pybullet's own default step
-DEFAULT_BOUNDS = (-3.0, -3.0, 3.0, 3.0)
-TOP_LEVEL_KEYS = ('name', 'seed', 'world', 'camera', 'robot_types')
-#: Modules whose import registers the built-in sections, in label order.
-BUILTIN_SECTION_MODULES = ('.mobile_robot', '.obstacles', '.tabletop', '.arm', '.targets', '.movable_boxes')
-#: Name of the wall entity the scene adds when world.walls is set.
-WALLS_ENTITY_NAME = 'walls'
-
-
-@dataclass(frozen=True)
-class WallConfig:
-    height: float
-    thickness: float
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    frame_id: str
-    physics_dt: float
-    gravity: float
-    bounds: tuple[float, float, float, float]
-    walls: WallConfig | None
-
-    def contains(self, x: float, y: float, margin: float = 0.0) -> bool:
-        """True if the disc of radius ``margin`` around (x, y) lies inside bounds."""
-        xmin, ymin, xmax, ymax = self.bounds
-        return xmin + margin <= x <= xmax - margin and ymin + margin <= y <= ymax - margin
-
-
-@dataclass(frozen=True)
-class CameraConfig:
-    frame_id: str
-    rate: float
-    width: int
-    height: int
-    center: tuple[float, float]
-    altitude: float
-    fov_deg: float
-
-
-@dataclass
-class SectionContext:
-    """What a section parser may need besides its own YAML value."""
-
-    path: str                       # dotted path of the section, e.g. 'mobile_robots'
-    base_dir: Path                  # directory relative file paths are resolved against
-    world: WorldConfig
-    robot_types: dict[str, dict[str, float]]
-    seed: int | None
-    #: Entities of the sections parsed before this one, by section key (read only), so a
-    #: section can check itself against earlier ones (cubes must rest on tables, arms must
-    #: not stand in them).
-    earlier: Mapping[str, list] = field(default_factory=dict)
-
-    def resolve(self, relative: str) -> Path:
-        """Resolve a path written in the scenario file."""
-        return (self.base_dir / relative).resolve()
-
-
-SectionParser = Callable[[Any, SectionContext], 'list[SceneEntity]']
+__all__ = [
+    'BUILTIN_ROBOT_TYPES', 'BUILTIN_SECTIONS', 'DEFAULT_BOUNDS', 'DEFAULT_PHYSICS_DT', 'ROBOT_TYPE_FIELDS',
+    'TOP_LEVEL_KEYS', 'WALLS_ENTITY_NAME', 'CameraConfig', 'Scenario', 'SectionContext', 'SectionParser',
+    'WallConfig', 'WorldConfig', 'load_scenario', 'parse_scenario', 'register_section', 'registered_sections',
+    'unregister_section',
+]
 
 
 @dataclass(frozen=True)
@@ -262,54 +195,19 @@ class Scenario:
     world: WorldConfig
     camera: CameraConfig
     robot_types: dict[str, dict[str, float]]
-    # sections[key] = entities returned by that section's parser, in registration order
+    # sections[key] = definitions returned by that section's parser, in registration order
     sections: dict[str, list] = field(default_factory=dict)
     seed: int | None = None
 
     def entities(self) -> list:
-        """Every section entity in spawn order."""
+        """Every section's entity definitions in spawn order."""
         return [entity for entities in self.sections.values() for entity in entities]
-
-
-_SECTION_PARSERS: dict[str, SectionParser] = {}
-
-
-def register_section(key: str, parser: SectionParser) -> None:
-    """Let top-level key ``key`` be parsed by ``parser(value, context) -> [SceneEntity]``.
-
-    Registering an existing key replaces its parser but keeps its position in the
-    spawn order. Entities get labels in registration order of their sections.
-    """
-    if not isinstance(key, str) or not key.isidentifier():
-        raise ValueError(f'section key must be an identifier (got {key!r})')
-    if key in TOP_LEVEL_KEYS:
-        raise ValueError(f"section key '{key}' is reserved (reserved: {', '.join(TOP_LEVEL_KEYS)})")
-    if not callable(parser):
-        raise ValueError(f"parser for section '{key}' is not callable")
-    _SECTION_PARSERS[key] = parser
-
-
-def unregister_section(key: str) -> None:
-    """Forget a section (mainly for tests that register temporary kinds)."""
-    _SECTION_PARSERS.pop(key, None)
-
-
-def registered_sections() -> list[str]:
-    """Keys of every registered section, built-ins included, in spawn order."""
-    _ensure_builtin_sections()
-    return list(_SECTION_PARSERS)
-
-
-def _ensure_builtin_sections() -> None:
-    # Imported lazily: those modules import this one to register themselves.
-    for module in BUILTIN_SECTION_MODULES:
-        importlib.import_module(module, __package__)
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
     path = Path(path)
-    data = read_yaml_file(path, 'scenario file')
+    data = read_yaml_file(path, 'scenario file', error=ScenarioError)
     try:
         return parse_scenario(data, path.resolve().parent, source=path.resolve())
     except ScenarioError as err:
@@ -319,22 +217,22 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def parse_scenario(data: dict, base_dir: Path, source: Path | None = None) -> Scenario:
     """Validate a scenario already loaded from YAML; relative paths resolve against ``base_dir``."""
-    _ensure_builtin_sections()
+    parsers = section_parsers()
     if not isinstance(data, Mapping):
         raise ScenarioError(f'scenario: must be a mapping (got {type_name(data)})')
     for key in data:
-        if key not in TOP_LEVEL_KEYS and key not in _SECTION_PARSERS:
+        if key not in TOP_LEVEL_KEYS and key not in parsers:
             raise fail(str(key), 'unknown top-level field (known fields: '
-                       f"{', '.join(TOP_LEVEL_KEYS)}; known sections: {', '.join(_SECTION_PARSERS)})")
-    top = Fields(data, '', allowed=list(data))  # keys were checked above
+                       f"{', '.join(TOP_LEVEL_KEYS)}; known sections: {', '.join(parsers)})", error=ScenarioError)
+    top = Fields(data, '', allowed=list(data), error=ScenarioError)  # keys were checked above
     name = top.string('name')
     seed = None if data.get('seed') is None else top.integer('seed')
-    world = _parse_world(data.get('world'))
-    camera = _parse_camera(data.get('camera'), world)
-    robot_types = _parse_robot_types(data.get('robot_types'))
+    world = parse_world(data.get('world'))
+    camera = parse_camera(data.get('camera'), world)
+    robot_types = parse_robot_types(data.get('robot_types'))
 
     sections: dict[str, list] = {}
-    for key, parser in _SECTION_PARSERS.items():
+    for key, parser in parsers.items():
         if key not in data:
             continue
         context = SectionContext(path=key, base_dir=Path(base_dir), world=world,
@@ -350,63 +248,6 @@ def parse_scenario(data: dict, base_dir: Path, source: Path | None = None) -> Sc
                     robot_types=robot_types, sections=sections, seed=seed)
 
 
-def _parse_world(value: Any) -> WorldConfig:
-    fields = Fields({} if value is None else value, 'world',
-                    allowed=('frame_id', 'physics_dt', 'gravity', 'bounds', 'walls'))
-    bounds = fields.vector('bounds', 4, DEFAULT_BOUNDS)
-    xmin, ymin, xmax, ymax = bounds
-    if not (xmin < xmax and ymin < ymax):
-        raise fail('world.bounds', f'must be [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax '
-                   f'(got {list(bounds)})')
-    walls = None
-    if fields.raw('walls', None) is not None:
-        wall_fields = Fields(fields.raw('walls'), 'world.walls', allowed=('height', 'thickness'))
-        walls = WallConfig(height=wall_fields.number('height', 0.3, gt=0.0),
-                           thickness=wall_fields.number('thickness', 0.05, gt=0.0))
-    return WorldConfig(
-        frame_id=fields.string('frame_id', 'world'),
-        physics_dt=fields.number('physics_dt', DEFAULT_PHYSICS_DT, gt=0.0, le=0.05),
-        gravity=fields.number('gravity', -9.81),
-        bounds=bounds,  # type: ignore[arg-type]
-        walls=walls,
-    )
-
-
-def _parse_camera(value: Any, world: WorldConfig) -> CameraConfig:
-    fields = Fields({} if value is None else value, 'camera', allowed=(
-        'frame_id', 'rate', 'width', 'height', 'center', 'altitude', 'fov_deg'))
-    xmin, ymin, xmax, ymax = world.bounds
-    return CameraConfig(
-        frame_id=fields.string('frame_id', 'top_camera'),
-        rate=fields.number('rate', 10.0, gt=0.0, le=100.0),
-        width=fields.integer('width', 320, ge=16, le=2048),
-        height=fields.integer('height', 320, ge=16, le=2048),
-        center=fields.vector('center', 2, ((xmin + xmax) / 2, (ymin + ymax) / 2)),  # type: ignore[arg-type]
-        altitude=fields.number('altitude', 8.0, gt=0.0),
-        fov_deg=fields.number('fov_deg', 45.0, gt=1.0, lt=170.0),
-    )
-
-
-def _parse_robot_types(value: Any) -> dict[str, dict[str, float]]:
-    types = {name: dict(params) for name, params in BUILTIN_ROBOT_TYPES.items()}
-    if value is None:
-        return types
-    for type_key, spec in require_mapping(value, 'robot_types').items():
-        path = join_path('robot_types', str(type_key))
-        check_name(type_key, path)
-        fields = Fields(spec, path, allowed=ROBOT_TYPE_FIELDS)
-        base = types.get(type_key)
-        params = {}
-        for key in ROBOT_TYPE_FIELDS:
-            if base is not None and not fields.has(key):
-                params[key] = base[key]
-            else:
-                # Every robot type field is a strictly positive quantity.
-                params[key] = fields.number(key, gt=0.0)
-        types[type_key] = params
-    return types
-
-
 def _check_unique_names(sections: dict[str, list], world: WorldConfig) -> None:
     used_by: dict[str, str] = {}
     if world.walls is not None:
@@ -416,5 +257,5 @@ def _check_unique_names(sections: dict[str, list], world: WorldConfig) -> None:
             where = entity.config_path
             if entity.name in used_by:
                 raise fail(join_path(where, 'name'),
-                           f"duplicate name '{entity.name}' (also used by {used_by[entity.name]})")
+                           f"duplicate name '{entity.name}' (also used by {used_by[entity.name]})", error=ScenarioError)
             used_by[entity.name] = where

@@ -1,71 +1,53 @@
-"""The simulated world: one private pybullet client holding a scenario's entities."""
+"""The simulated world: one private pybullet client holding a scenario's entities.
+
+The scene turns each entity definition of the scenario into its simulated counterpart
+(:data:`SIMULATED_KINDS`; a section that returns :class:`SceneEntity` objects itself gets a
+copy of each), spawns them, labels their bodies for segmentation and steps the physics.
+"""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import os
-from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar, TypeVar
+from typing import TypeVar
 
 import numpy as np
 import pybullet as p
 import pybullet_data
 
+from .arm.definition import Arm
+from .arm.simulation import SimulatedArm
 from .camera import TopViewCamera
+from .entity import BACKGROUND_LABEL, BodyStateData, EntityDefinition, SceneEntity
+from .mobile_robot import MobileRobot
+from .mobile_robot_body import SimulatedMobileRobot
+from .obstacles import WallSet
+from .passive_bodies import PASSIVE_BODIES
 from .scenario import Scenario
 
-#: Label of every pixel that shows no entity (ground plane, sky).
-BACKGROUND_LABEL = 0
+__all__ = ['BACKGROUND_LABEL', 'SIMULATED_KINDS', 'BodyStateData', 'CameraFrame', 'Scene', 'SceneEntity',
+           'simulated_entity']
+
+#: The simulated class of every built-in definition.
+SIMULATED_KINDS: dict[type, type[SceneEntity]] = {
+    **PASSIVE_BODIES, MobileRobot: SimulatedMobileRobot, Arm: SimulatedArm,
+}
 
 
-class SceneEntity(ABC):
-    """Something a scenario puts in the world (a robot, an obstacle, ...).
-
-    Section parsers create entities; the :class:`Scene` spawns them, assigns
-    ``body_ids`` and ``label`` and calls the step hooks around every physics step.
-    """
-
-    kind: ClassVar[str]
-    name: str
-    #: Where the entity was written in the scenario, e.g. 'mobile_robots[1]' (for error messages).
-    config_path: str = ''
-    #: pybullet unique ids from the last spawn (first = main body); set by Scene.
-    body_ids: list[int] = []
-    #: Segmentation label (1..N); set by Scene.
-    label: int = BACKGROUND_LABEL
-
-    @abstractmethod
-    def spawn(self, client: int) -> list[int]:
-        """Create the entity's bodies in ``client``; return their unique ids, main body first.
-
-        Called again after every reset, so it must also reset any runtime state.
-        """
-
-    def before_step(self, client: int, dt: float, sim_time: float) -> None:
-        """Called before each physics step; ``sim_time`` is the time at its start."""
-
-    def after_step(self, client: int, dt: float, sim_time: float) -> None:
-        """Called after each physics step; ``sim_time`` is the time at its end."""
-
-    @property
-    def main_body(self) -> int:
-        return self.body_ids[0]
+def simulated_entity(definition: EntityDefinition) -> SceneEntity:
+    """A fresh simulated entity for ``definition`` (which stays untouched: scenarios are shared specs)."""
+    if isinstance(definition, SceneEntity):
+        return copy.deepcopy(definition)
+    simulated_class = SIMULATED_KINDS.get(type(definition))
+    if simulated_class is None:
+        raise TypeError(f"no simulation for {type(definition).__name__} '{definition.name}' "
+                        '(a section must return SceneEntity objects or definitions of a built-in kind)')
+    values = {f.name: copy.deepcopy(getattr(definition, f.name)) for f in dataclasses.fields(definition) if f.init}
+    return simulated_class(**values)
 
 
-EntityT = TypeVar('EntityT', bound=SceneEntity)
-
-
-@dataclass(frozen=True)
-class BodyStateData:
-    """Ground-truth state of an entity's main body, in the world frame."""
-
-    name: str
-    kind: str
-    label: int
-    position: tuple[float, float, float]
-    orientation_xyzw: tuple[float, float, float, float]
-    linear_velocity: tuple[float, float, float]
-    angular_velocity: tuple[float, float, float]
+EntityT = TypeVar('EntityT')
 
 
 @dataclass(frozen=True)
@@ -94,10 +76,9 @@ class Scene:
 
     @staticmethod
     def _fresh_entities(scenario: Scenario) -> list[SceneEntity]:
-        # Copies keep the Scenario an immutable spec that several scenes may share.
-        from .obstacles import WallSet  # late import: obstacles imports this module
-        walls = [] if scenario.world.walls is None else [WallSet(scenario.world)]
-        return walls + [copy.deepcopy(entity) for entity in scenario.entities()]
+        # Fresh entities keep the Scenario an immutable spec that several scenes may share.
+        walls = [] if scenario.world.walls is None else [WallSet.around(scenario.world)]
+        return [simulated_entity(definition) for definition in walls + scenario.entities()]
 
     def _build(self, scenario: Scenario, entities: list[SceneEntity]) -> None:
         client = self.client
@@ -180,6 +161,10 @@ class Scene:
         if 0 <= body_id < len(self._label_of_body):
             return int(self._label_of_body[body_id])
         return BACKGROUND_LABEL
+
+    def body_pose(self, body_id: int) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """World position and xyzw orientation of a body's base."""
+        return p.getBasePositionAndOrientation(body_id, physicsClientId=self.client)
 
     def body_states(self) -> list[BodyStateData]:
         """Ground truth of every entity's main body, in entity order."""

@@ -23,7 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from .fields import Fields, fail, join_path, require_list
+from collab_tools.core.fields import Fields, fail, join_path, require_list
+
+from .errors import ScenarioError
 
 FIDUCIAL, LASER, GPS, BUMPER = 'fiducial', 'laser', 'gps', 'bumper'
 SENSOR_NAMES = (FIDUCIAL, LASER, GPS, BUMPER)
@@ -104,7 +106,7 @@ def derived_sensor_seed(scenario_seed: int | None, robot_index: int) -> int:
 def _active(fields: Fields) -> bool:
     value = fields.raw('active', True)
     if not isinstance(value, bool):
-        raise fail(fields.path_of('active'), f'must be true or false (got {value!r})')
+        raise fail(fields.path_of('active'), f'must be true or false (got {value!r})', error=ScenarioError)
     return value
 
 
@@ -114,15 +116,15 @@ def _rate(fields: Fields) -> float:
 
 def _parse_fiducial(value: Any, path: str) -> FiducialConfig:
     fields = Fields({} if value is None else value, path, allowed=(
-        'fov_deg', 'range', 'rate', 'range_noise_std', 'bearing_noise_std', 'yaw_noise_std', 'kinds', 'active'))
+        'fov_deg', 'range', 'rate', 'range_noise_std', 'bearing_noise_std', 'yaw_noise_std', 'kinds', 'active'), error=ScenarioError)
     kinds = FIDUCIAL_KINDS
     if fields.has('kinds'):
         kinds_path = fields.path_of('kinds')
-        kinds = tuple(require_list(fields.raw('kinds'), kinds_path))
+        kinds = tuple(require_list(fields.raw('kinds'), kinds_path, error=ScenarioError))
         for index, kind in enumerate(kinds):
             if kind not in FIDUCIAL_KINDS:
                 raise fail(join_path(kinds_path, index), f'unknown kind {kind!r} '
-                           f"(allowed: {', '.join(FIDUCIAL_KINDS)})")
+                           f"(allowed: {', '.join(FIDUCIAL_KINDS)})", error=ScenarioError)
     return FiducialConfig(
         # The paper's Fig. 7 fiducials: 180 deg facing forward, 4 m.
         fov_deg=fields.number('fov_deg', 180.0, gt=0.0, le=360.0),
@@ -136,7 +138,7 @@ def _parse_fiducial(value: Any, path: str) -> FiducialConfig:
 
 def _parse_laser(value: Any, path: str) -> LaserConfig:
     fields = Fields({} if value is None else value, path, allowed=(
-        'fov_deg', 'beams', 'range', 'rate', 'noise_std', 'active'))
+        'fov_deg', 'beams', 'range', 'rate', 'noise_std', 'active'), error=ScenarioError)
     return LaserConfig(
         fov_deg=fields.number('fov_deg', 180.0, gt=0.0, le=360.0),
         beams=fields.integer('beams', 181, ge=1, le=MAX_LASER_BEAMS),
@@ -146,13 +148,13 @@ def _parse_laser(value: Any, path: str) -> LaserConfig:
 
 def _parse_gps(value: Any, path: str) -> GpsConfig:
     fields = Fields({} if value is None else value, path, allowed=(
-        'rate', 'noise_std', 'yaw_noise_std', 'active'))
+        'rate', 'noise_std', 'yaw_noise_std', 'active'), error=ScenarioError)
     return GpsConfig(rate=_rate(fields), noise_std=fields.number('noise_std', 0.0, ge=0.0),
                      yaw_noise_std=fields.number('yaw_noise_std', 0.0, ge=0.0), active=_active(fields))
 
 
 def _parse_bumper(value: Any, path: str) -> BumperConfig:
-    fields = Fields({} if value is None else value, path, allowed=('rate', 'fov_deg', 'active'))
+    fields = Fields({} if value is None else value, path, allowed=('rate', 'fov_deg', 'active'), error=ScenarioError)
     return BumperConfig(rate=_rate(fields), fov_deg=fields.number('fov_deg', 360.0, gt=0.0, le=360.0),
                         active=_active(fields))
 
@@ -168,12 +170,12 @@ def parse_robot_sensors(value: Any, path: str, scenario_seed: int | None,
     """
     if value is None:
         return None
-    fields = Fields(value, path, allowed=('seed', *SENSOR_NAMES))
+    fields = Fields(value, path, allowed=('seed', *SENSOR_NAMES), error=ScenarioError)
     seed = fields.integer('seed') if fields.raw('seed', None) is not None else \
         derived_sensor_seed(scenario_seed, robot_index)
     sensors = {name: _PARSERS[name](fields.raw(name), fields.path_of(name))
                for name in SENSOR_NAMES if fields.has(name)}
     if not sensors:
         raise fail(path, f"lists no sensor (allowed: {', '.join(SENSOR_NAMES)}); "
-                   'leave the field out for a robot without sensors')
+                   'leave the field out for a robot without sensors', error=ScenarioError)
     return SensorSet(seed=seed, sensors=sensors)

@@ -30,8 +30,8 @@ from typing import TYPE_CHECKING, Union
 import numpy as np
 import pybullet as p
 
-from .mobile_robot import MobileRobot
-from .scene import BACKGROUND_LABEL, SceneEntity
+from .entity import BACKGROUND_LABEL, SceneEntity
+from .mobile_robot_body import SimulatedMobileRobot
 from .sensor_config import (BUMPER, FIDUCIAL, GPS, LASER, SENSOR_NAMES, BumperConfig, FiducialConfig,
                             GpsConfig, LaserConfig)
 
@@ -120,7 +120,7 @@ def laser_angles(fov_deg: float, beams: int) -> tuple[float, float]:
 class RobotSensors:
     """The sensors of one robot in one scene; ``due`` returns what to publish now."""
 
-    def __init__(self, scene: Scene, robot: MobileRobot):
+    def __init__(self, scene: Scene, robot: SimulatedMobileRobot):
         if robot.sensors is None:
             raise ValueError(f"robot '{robot.name}' has no sensors configured")
         self.scene = scene
@@ -170,7 +170,7 @@ class RobotSensors:
         raise KeyError(f"no sensing model for sensor '{name}'")
 
 
-def _sensor_height(robot: MobileRobot) -> float:
+def _sensor_height(robot: SimulatedMobileRobot) -> float:
     return robot.params.height / 2.0
 
 
@@ -178,7 +178,7 @@ def _entity_of_body(scene: Scene) -> dict[int, SceneEntity]:
     return {body: entity for entity in scene.entities for body in entity.body_ids}
 
 
-def sense_fiducial(scene: Scene, robot: MobileRobot, config: FiducialConfig,
+def sense_fiducial(scene: Scene, robot: SimulatedMobileRobot, config: FiducialConfig,
                    rng: np.random.Generator | None = None) -> FiducialReading:
     client = scene.client
     sx, sy, syaw = robot.pose2d(client)
@@ -229,7 +229,7 @@ def sense_fiducial(scene: Scene, robot: MobileRobot, config: FiducialConfig,
     return FiducialReading(field_of_view=2.0 * half_fov, max_range=config.range, detections=tuple(detections))
 
 
-def sense_laser(scene: Scene, robot: MobileRobot, config: LaserConfig,
+def sense_laser(scene: Scene, robot: SimulatedMobileRobot, config: LaserConfig,
                 rng: np.random.Generator | None = None) -> LaserReading:
     client = scene.client
     sx, sy, syaw = robot.pose2d(client)
@@ -257,7 +257,7 @@ def sense_laser(scene: Scene, robot: MobileRobot, config: LaserConfig,
                         ranges=ranges)
 
 
-def sense_gps(scene: Scene, robot: MobileRobot, config: GpsConfig,
+def sense_gps(scene: Scene, robot: SimulatedMobileRobot, config: GpsConfig,
               rng: np.random.Generator | None = None) -> GpsReading:
     x, y, yaw = robot.pose2d(scene.client)
     if rng is not None:
@@ -269,7 +269,7 @@ def sense_gps(scene: Scene, robot: MobileRobot, config: GpsConfig,
                       yaw_std=config.yaw_noise_std)
 
 
-def sense_bumper(scene: Scene, robot: MobileRobot, config: BumperConfig) -> BumperReading:
+def sense_bumper(scene: Scene, robot: SimulatedMobileRobot, config: BumperConfig) -> BumperReading:
     client = scene.client
     sx, sy, syaw = robot.pose2d(client)
     half_fov = math.radians(config.fov_deg) / 2.0

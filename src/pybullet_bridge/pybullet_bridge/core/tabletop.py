@@ -9,6 +9,8 @@ column 0 the one with the smallest x.
 A cube is a dynamic box. Its scenario entry gives only x, y: it stands on the table
 whose top contains its whole footprint, or on the ground when it touches no table.
 A cube straddling a table edge, overlapping another cube or an obstacle is an error.
+
+Definitions and parsing only; :mod:`.passive_bodies` spawns them in pybullet.
 """
 from __future__ import annotations
 
@@ -16,25 +18,18 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
-import pybullet as p
+from collab_tools.core.fields import Fields, fail, join_path, require_list
 
-from .fields import Fields, fail, join_path, require_list
+from .entity import EntityDefinition
+from .errors import ScenarioError
 from .obstacles import BoxObstacle
-from .scenario import SectionContext, register_section
-from .scene import SceneEntity
+from .sections import SectionContext
 
 DEFAULT_TABLE_COLOR = (0.78, 0.66, 0.5)
 DEFAULT_GRID_COLOR = (0.15, 0.15, 0.15)
 DEFAULT_GRID_LINE_WIDTH = 0.004   # m: 2-3 pixels with the test_tabletop camera
 DEFAULT_CUBE_EDGE = 0.03          # m: four fit in a 0.10 m cell with 0.01 m clearance
 DEFAULT_CUBE_MASS = 0.05          # kg
-#: Grid lines float this far above the table top: visible, yet below any cube's top.
-GRID_LINE_LIFT = 0.0005           # m
-GRID_LINE_THICKNESS = 0.001       # m
-# Contact parameters of cubes: wood-like friction, no bounce, so a cube set down settles at once.
-CUBE_LATERAL_FRICTION = 0.8
-CUBE_SPINNING_FRICTION = 0.001
-CUBE_ROLLING_FRICTION = 0.0001
 
 
 Rect = tuple[float, float, float, float]  # xmin ymin xmax ymax
@@ -72,21 +67,25 @@ def box_obstacle_rect(box: BoxObstacle) -> Rect:
     return (box.center[0] - half_x, box.center[1] - half_y, box.center[0] + half_x, box.center[1] + half_y)
 
 
-class Table(SceneEntity):
+@dataclass(eq=False)
+class Table(EntityDefinition):
     """A static table block; its top is at ``height``."""
 
     kind = 'table'
 
-    def __init__(self, name: str, center: tuple[float, float], size: tuple[float, float],
-                 height: float, color: tuple[float, float, float] = DEFAULT_TABLE_COLOR,
-                 grid: GridSpec | None = None, config_path: str = ''):
-        self.name = name
-        self.center = (float(center[0]), float(center[1]))
-        self.size = (float(size[0]), float(size[1]))
-        self.height = float(height)
-        self.color = tuple(color)
-        self.grid = grid
-        self.config_path = config_path
+    name: str
+    center: tuple[float, float]
+    size: tuple[float, float]
+    height: float
+    color: tuple[float, float, float] = DEFAULT_TABLE_COLOR
+    grid: GridSpec | None = None
+    config_path: str = ''
+
+    def __post_init__(self):
+        self.center = (float(self.center[0]), float(self.center[1]))
+        self.size = (float(self.size[0]), float(self.size[1]))
+        self.height = float(self.height)
+        self.color = tuple(self.color)
 
     # -- geometry ---------------------------------------------------------------
 
@@ -149,52 +148,29 @@ class Table(SceneEntity):
             lines.append(((self.center[0], y), (self.size[0], w)))
         return lines
 
-    # -- physics ----------------------------------------------------------------
-
-    def spawn(self, client: int) -> list[int]:
-        half = [self.size[0] / 2.0, self.size[1] / 2.0, self.height / 2.0]
-        collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=[*self.color, 1.0],
-                                     physicsClientId=client)
-        # Grid lines are links without collision shapes: seen by the camera (with the
-        # table's label), invisible to physics.
-        link_visuals, link_positions = [], []
-        for (x, y), (sx, sy) in self.grid_lines():
-            link_visuals.append(p.createVisualShape(
-                p.GEOM_BOX, halfExtents=[sx / 2.0, sy / 2.0, GRID_LINE_THICKNESS / 2.0],
-                rgbaColor=[*self.grid.color, 1.0], physicsClientId=client))
-            link_positions.append([x - self.center[0], y - self.center[1],
-                                   self.height / 2.0 + GRID_LINE_LIFT + GRID_LINE_THICKNESS / 2.0])
-        count = len(link_visuals)
-        body = p.createMultiBody(
-            baseMass=0.0, baseCollisionShapeIndex=collision, baseVisualShapeIndex=visual,
-            basePosition=[self.center[0], self.center[1], self.height / 2.0],
-            linkMasses=[0.0] * count, linkCollisionShapeIndices=[-1] * count,
-            linkVisualShapeIndices=link_visuals, linkPositions=link_positions,
-            linkOrientations=[[0, 0, 0, 1]] * count, linkInertialFramePositions=[[0, 0, 0]] * count,
-            linkInertialFrameOrientations=[[0, 0, 0, 1]] * count, linkParentIndices=[0] * count,
-            linkJointTypes=[p.JOINT_FIXED] * count, linkJointAxis=[[0, 0, 1]] * count,
-            physicsClientId=client)
-        return [body]
-
-
-class Cube(SceneEntity):
+@dataclass(eq=False)
+class Cube(EntityDefinition):
     """A dynamic cube resting on a table (``support`` = its name) or on the ground (None)."""
 
     kind = 'cube'
 
-    def __init__(self, name: str, position: tuple[float, float], edge: float, mass: float,
-                 color: tuple[float, float, float], yaw: float = 0.0, support: str | None = None,
-                 support_height: float = 0.0, config_path: str = ''):
-        self.name = name
-        self.position = (float(position[0]), float(position[1]))
-        self.edge = float(edge)
-        self.mass = float(mass)
-        self.color = tuple(color)
-        self.yaw = float(yaw)
-        self.support = support
-        self.support_height = float(support_height)
-        self.config_path = config_path
+    name: str
+    position: tuple[float, float]
+    edge: float
+    mass: float
+    color: tuple[float, float, float]
+    yaw: float = 0.0
+    support: str | None = None
+    support_height: float = 0.0
+    config_path: str = ''
+
+    def __post_init__(self):
+        self.position = (float(self.position[0]), float(self.position[1]))
+        self.edge = float(self.edge)
+        self.mass = float(self.mass)
+        self.color = tuple(self.color)
+        self.yaw = float(self.yaw)
+        self.support_height = float(self.support_height)
 
     @property
     def initial_z(self) -> float:
@@ -203,21 +179,6 @@ class Cube(SceneEntity):
 
     def footprint(self) -> Rect:
         return square_footprint(*self.position, self.edge, self.yaw)
-
-    def spawn(self, client: int) -> list[int]:
-        half = [self.edge / 2.0] * 3
-        collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=[*self.color, 1.0],
-                                     physicsClientId=client)
-        body = p.createMultiBody(
-            baseMass=self.mass, baseCollisionShapeIndex=collision, baseVisualShapeIndex=visual,
-            basePosition=[*self.position, self.initial_z],
-            baseOrientation=p.getQuaternionFromEuler([0.0, 0.0, self.yaw]), physicsClientId=client)
-        p.changeDynamics(body, -1, lateralFriction=CUBE_LATERAL_FRICTION,
-                         spinningFriction=CUBE_SPINNING_FRICTION, rollingFriction=CUBE_ROLLING_FRICTION,
-                         restitution=0.0, physicsClientId=client)
-        return [body]
-
 
 def tables_in(earlier: dict[str, list] | Any) -> list[Table]:
     return [entity for entity in earlier.get('tables', []) if isinstance(entity, Table)]
@@ -239,13 +200,13 @@ def parse_tables(value: Any, context: SectionContext) -> list[Table]:
     if value is None:
         return []
     tables: list[Table] = []
-    for index, item in enumerate(require_list(value, context.path)):
+    for index, item in enumerate(require_list(value, context.path, error=ScenarioError)):
         path = join_path(context.path, index)
-        fields = Fields(item, path, allowed=('name', 'center', 'size', 'height', 'color', 'grid'))
+        fields = Fields(item, path, allowed=('name', 'center', 'size', 'height', 'color', 'grid'), error=ScenarioError)
         grid = None
         if fields.raw('grid', None) is not None:
             grid_fields = Fields(fields.raw('grid'), fields.path_of('grid'),
-                                 allowed=('rows', 'cols', 'line_width', 'color'))
+                                 allowed=('rows', 'cols', 'line_width', 'color'), error=ScenarioError)
             grid = GridSpec(rows=grid_fields.integer('rows', ge=1, le=100),
                             cols=grid_fields.integer('cols', ge=1, le=100),
                             line_width=grid_fields.number('line_width', DEFAULT_GRID_LINE_WIDTH, gt=0.0),
@@ -260,14 +221,14 @@ def parse_tables(value: Any, context: SectionContext) -> list[Table]:
             smallest_cell = min(table.cell_size)
             if grid.line_width >= smallest_cell / 2.0:
                 raise fail(join_path(fields.path_of('grid'), 'line_width'),
-                           f'must be < half a cell ({smallest_cell / 2.0:.4f} m) (got {grid.line_width})')
+                           f'must be < half a cell ({smallest_cell / 2.0:.4f} m) (got {grid.line_width})', error=ScenarioError)
         xmin, ymin, xmax, ymax = table.top_rect
         if not (context.world.contains(xmin, ymin) and context.world.contains(xmax, ymax)):
             raise fail(path, f'table top [{xmin:.3f}, {ymin:.3f}, {xmax:.3f}, {ymax:.3f}] must lie inside '
-                       f'world.bounds {list(context.world.bounds)}')
+                       f'world.bounds {list(context.world.bounds)}', error=ScenarioError)
         for other in tables:
             if rects_overlap(table.top_rect, other.top_rect):
-                raise fail(path, f"table '{table.name}' overlaps table '{other.name}' ({other.config_path})")
+                raise fail(path, f"table '{table.name}' overlaps table '{other.name}' ({other.config_path})", error=ScenarioError)
         tables.append(table)
     return tables
 
@@ -279,9 +240,9 @@ def parse_cubes(value: Any, context: SectionContext) -> list[Cube]:
     tables = tables_in(context.earlier)
     obstacles = [box for box in context.earlier.get('obstacles', []) if isinstance(box, BoxObstacle)]
     cubes: list[Cube] = []
-    for index, item in enumerate(require_list(value, context.path)):
+    for index, item in enumerate(require_list(value, context.path, error=ScenarioError)):
         path = join_path(context.path, index)
-        fields = Fields(item, path, allowed=('name', 'position', 'size', 'mass', 'color', 'yaw'))
+        fields = Fields(item, path, allowed=('name', 'position', 'size', 'mass', 'color', 'yaw'), error=ScenarioError)
         name = fields.name('name')
         position = fields.vector('position', 2)
         edge = fields.number('size', DEFAULT_CUBE_EDGE, gt=0.0, le=0.5)
@@ -293,25 +254,22 @@ def parse_cubes(value: Any, context: SectionContext) -> list[Cube]:
         holding, partial = support_under(tables, footprint)
         if holding is None and partial is not None:
             raise fail(fields.path_of('position'), f"{where} straddles the edge of table '{partial.name}' "
-                       f'(top {[round(v, 4) for v in partial.top_rect]}); put it wholly on or off the table')
+                       f'(top {[round(v, 4) for v in partial.top_rect]}); put it wholly on or off the table', error=ScenarioError)
         if holding is None and not (context.world.contains(footprint[0], footprint[1])
                                     and context.world.contains(footprint[2], footprint[3])):
             raise fail(fields.path_of('position'), f'{where} is on no table and not inside world.bounds '
-                       f'{list(context.world.bounds)}')
+                       f'{list(context.world.bounds)}', error=ScenarioError)
         for box in obstacles:
             if rects_overlap(footprint, box_obstacle_rect(box)) and (holding is None
                                                                       or box.height > holding.height):
-                raise fail(fields.path_of('position'), f"{where} overlaps obstacle '{box.name}'")
+                raise fail(fields.path_of('position'), f"{where} overlaps obstacle '{box.name}'", error=ScenarioError)
         support = holding.name if holding else None
         for other in cubes:
             if other.support == support and rects_overlap(footprint, other.footprint()):
                 raise fail(fields.path_of('position'),
-                           f"{where} overlaps cube '{other.name}' ({other.config_path})")
+                           f"{where} overlaps cube '{other.name}' ({other.config_path})", error=ScenarioError)
         cubes.append(Cube(name, position, edge, mass, color, yaw,  # type: ignore[arg-type]
                           support=support,
                           support_height=holding.height if holding else 0.0, config_path=path))
     return cubes
 
-
-register_section('tables', parse_tables)
-register_section('cubes', parse_cubes)
