@@ -112,7 +112,6 @@ def column_result(run: CoalitionRun, robots: int, bin_s: float = 0.05) -> dict:
     return result
 
 
-
 def run_column_demo(config_dir: str | Path, run_dir: str | Path, robots: int = 3, search_time_s: float = 3.0,
                     log: Log = print):
     """scripts/demo's coalition scenario: a short column (Fig. 9 geometry, paper link model); the
