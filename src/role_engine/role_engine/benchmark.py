@@ -40,7 +40,8 @@ from typing import Callable
 import numpy as np
 
 from .benchmark_core import median_ms
-from .collab_experiment import CollabScenario, initial_process_roles, scenario_team
+from .experiments.collab_config import CollabScenario
+from .experiments.collab_simulation import initial_process_roles, scenario_team
 from .core.conflict import SharedRole
 from .core.environment import environment_from_scenario
 from .core.formation_task import load_formation_task, replan_process_role
@@ -51,7 +52,7 @@ from .core.environment import RobotType, load_map_file
 from .core.errors import RoleEngineError
 from .core.gp_planner import FORMULATIONS, GPPlanner
 from .core.initial_paths import emap_trajectory, straight_line_trajectory
-from .experiments import CONFIG_FILE, BenchmarkProblem, ExperimentConfig, load_experiment_config
+from .experiments.config import CONFIG_FILE, BenchmarkProblem, ExperimentConfig, load_experiment_config
 
 Log = Callable[[str], None]
 

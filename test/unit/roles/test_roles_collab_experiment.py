@@ -6,10 +6,12 @@ import pytest
 
 from pybullet_bridge.core.scenario import load_scenario
 
-from role_engine import collab_experiment
-from role_engine.collab_experiment import (contact_onsets, finite_difference_jerk, hermite_jerk, initial_process_roles,
-                                           load_collab_config, run_measures, scenario_team, separation_measures,
-                                           simulate)
+from role_engine.core import player
+from role_engine.experiments.collab import run_measures
+from role_engine.experiments.collab_config import load_collab_config
+from role_engine.experiments.collab_simulation import initial_process_roles, scenario_team, simulate
+from role_engine.experiments.path_measures import (contact_onsets, finite_difference_jerk, hermite_jerk,
+                                                   separation_measures)
 from role_engine.core.conflict import SharedRole
 from role_engine.core.environment import environment_from_scenario
 
@@ -148,13 +150,13 @@ def _run(tmp_path, method, monkeypatch=None):
 
 def test_task_based_players_see_the_others_only_at_rest_where_they_are(tmp_path, monkeypatch):
     seen = []
-    real = collab_experiment.replan_process_role
+    real = player.replan_process_role
 
     def spy(config, view, own, others, now, position, **kwargs):
         seen.append((own.name, now, others))
         return real(config, view, own, others, now, position, **kwargs)
 
-    monkeypatch.setattr(collab_experiment, 'replan_process_role', spy)
+    monkeypatch.setattr(player, 'replan_process_role', spy)   # the player the nodes run
     _, _, _, record = _run(tmp_path, 'task_based')
     assert seen
     for own, now, others in seen:
@@ -167,13 +169,13 @@ def test_task_based_players_see_the_others_only_at_rest_where_they_are(tmp_path,
 
 def test_role_based_players_see_the_others_process_roles(tmp_path, monkeypatch):
     seen = []
-    real = collab_experiment.replan_process_role
+    real = player.replan_process_role
 
     def spy(config, view, own, others, now, position, **kwargs):
         seen.append(others)
         return real(config, view, own, others, now, position, **kwargs)
 
-    monkeypatch.setattr(collab_experiment, 'replan_process_role', spy)
+    monkeypatch.setattr(player, 'replan_process_role', spy)   # the player the nodes run
     _run(tmp_path, 'role_based')
     assert seen and all(len(o) == 1 and o[0].trajectory[:, 2:].any() for o in seen)   # moving roles
 

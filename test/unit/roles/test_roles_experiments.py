@@ -12,14 +12,23 @@ import yaml
 from role_engine.core.environment import RobotType, load_map_file
 from role_engine.core.errors import RoleEngineError
 from role_engine.core.gp_planner import GPPlanner, GPPlannerConfig
-from role_engine.experiments import (_PlacementCheck, draw_problem, load_experiment_config, run_table3,
-                                     run_table4)
+from collab_tools.experiments.api import ExperimentRequest, run_experiment
+from role_engine.experiments import EXPERIMENTS
+from role_engine.experiments.config import load_experiment_config
+from role_engine.experiments.problems import _PlacementCheck, draw_problem
 
 from roles_gp_helpers import AnalyticSDF, straight_line
 
 CONFIG_DIR = Path(__file__).resolve().parents[3] / 'config'
 CONFIG_FILE = CONFIG_DIR / 'roles' / 'experiments.yaml'
 MAPS_DIR = CONFIG_DIR / 'roles' / 'maps'
+
+
+def run_table(name, run_dir, log=print, **options):
+    """The experiment as scripts/experiment runs it; its results.json (schema keys and the table's data)."""
+    experiment = next(e for e in EXPERIMENTS if e.name == name)
+    run_experiment(experiment, ExperimentRequest(CONFIG_DIR, Path(run_dir), options=options, log=log))
+    return json.loads((Path(run_dir) / 'results.json').read_text())
 
 
 def _brute_force_minimum(q):
@@ -31,8 +40,8 @@ def table3(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp('roles-table3')
     lines = []
     # env_4 (maze, 0.1 m walls): a straight line crosses walls, the E-Map goes round them.
-    results = run_table3(CONFIG_DIR, run_dir, log=lines.append, environments=['env_4'], sigma_obs=[0.15],
-                         problems_per_environment=2)
+    results = run_table('roles-table3', run_dir, log=lines.append, only=['env_4'], sigma_obs=[0.15],
+                        problems_per_environment=2)
     return results, run_dir, lines
 
 
@@ -40,8 +49,8 @@ def table3(tmp_path_factory):
 def table4(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp('roles-table4')
     lines = []
-    results = run_table4(CONFIG_DIR, run_dir, log=lines.append, environments=['env_2'], sigma_obs=[0.15],
-                         problems_per_environment=2)
+    results = run_table('roles-table4', run_dir, log=lines.append, only=['env_2'], sigma_obs=[0.15],
+                        problems_per_environment=2)
     return results, run_dir, lines
 
 
@@ -180,9 +189,9 @@ def test_bad_configuration_names_the_field(tmp_path, edit, message):
 
 def test_run_overrides_are_checked(tmp_path):
     with pytest.raises(RoleEngineError, match='environments: must be a non-empty subset'):
-        run_table3(CONFIG_DIR, tmp_path, environments=['env_42'])
+        run_table('roles-table3', tmp_path, only=['env_42'])
     with pytest.raises(RoleEngineError, match='problems_per_environment: must be an integer >= 1'):
-        run_table4(CONFIG_DIR, tmp_path, problems_per_environment=0)
+        run_table('roles-table4', tmp_path, problems_per_environment=0)
 
 
 def test_benchmark_problems_are_visitable_for_the_benchmark_robot():

@@ -8,8 +8,8 @@ import pytest
 from collab_tools.core.bag_types import build_typestore
 from collab_tools.core.bag_writer import BagWriter, QosSpec
 
-from role_engine.formation_experiment import (commanded_positions, formation_acceptance,  # noqa: E402
-                                              formation_results, read_formation_bag)
+from role_engine.experiments.formation import formation_acceptance  # noqa: E402
+from role_engine.experiments.formation_bag import commanded_positions, formation_results, read_formation_bag  # noqa: E402
 
 WS = Path(__file__).resolve().parents[3]
 TYPES = {'/roles/assignment': 'role_interfaces/msg/RoleAssignment', '/roles/channel': 'role_interfaces/msg/ProcessRole',
@@ -160,11 +160,10 @@ def test_a_bag_without_ground_truth_is_a_clear_error(tmp_path, typestore):
 
 
 def test_table_and_plots_are_written_from_the_bag(tmp_path, typestore):
-    from role_engine.formation_experiment import formation_markdown, plot_commanded_vs_tracked, plot_commands
+    from role_engine.experiments.formation import formation_markdown, plot_commanded_vs_tracked, plot_commands
     log = read_formation_bag(write_bag(tmp_path / 'bag', typestore, pass_gap=0.1), ['a', 'b'])
     results = formation_results(log, RADII, arrival_tolerance=0.08)
-    results['acceptance'] = formation_acceptance(results)
-    text = formation_markdown(results)
+    text = formation_markdown(results, formation_acceptance(results))
     assert '| a | line_a | yes | 10.5 | 0.000 |' in text and 'collisions 1' in text and 'FAILED' in text
     plot_commanded_vs_tracked(log, results, tmp_path / 'tracked.png')
     plot_commands(log, tmp_path / 'cmd.png')
@@ -173,7 +172,7 @@ def test_table_and_plots_are_written_from_the_bag(tmp_path, typestore):
 
 def test_the_stopped_player_is_found_by_its_robot_namespace():
     from collab_tools.orchestration.experiment import load_experiment, parse_node
-    from role_engine.formation_experiment import player_label
+    from role_engine.experiments.formation import player_label
 
     data = load_experiment(WS / 'config' / 'experiments' / 'roles_formation.yaml')
     players = [parse_node(n, 'node') for n in data['nodes'] if n['executable'] == 'role_player']
