@@ -20,8 +20,8 @@ from rosgraph_msgs.msg import Clock
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import SENSOR_IN
 from bridge_helpers import bridge_spec
-from coalition_agents.agent_channel import CHANNEL_QOS
-from coalition_agents.agent_parameters import DYNAMIC, PARAMETERS
+from coalition_agents.transport.agent_channel import CHANNEL_QOS
+from coalition_agents.core.settings import AGENT_SETTINGS, DYNAMIC
 from coalition_agents.core.sim_scenarios import agent_parameter_file
 
 LEADER, HELPER, BYSTANDER = 'robot_blind', 'robot_helper', 'robot_bystander'
@@ -119,7 +119,7 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
 
     # Descriptors: a description each; dynamic exactly as declared; ranges where they apply.
     described = descriptors(session, AGENT)
-    assert set(described) == set(PARAMETERS) | OWN
+    assert set(described) == set(AGENT_SETTINGS.names) | OWN
     for name, descriptor in described.items():
         assert descriptor.description, name
         assert descriptor.read_only == (name not in DYNAMIC), name

@@ -67,7 +67,7 @@ from collab_tools.names import TeamNode, check_robot_name, join
 from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
 
-from .agent_channel import CHANNEL_TOPIC, inbox_topic
+from .transport.agent_channel import CHANNEL_TOPIC, inbox_topic
 from .core.cooperative_work import CooperativeWork
 from .schema_agent_node import SchemaAgentNode
 

@@ -7,7 +7,7 @@ import pytest
 
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file
 from coalition_agents.core.agent import OfferRejected, SchemaAgent
-from coalition_agents.core.channel_codec import OfferSummary
+from coalition_agents.core.transport.codec import OfferSummary
 from coalition_agents.core.live_sensing import LiveSensing
 from coalition_agents.core.errors import ConfigError
 

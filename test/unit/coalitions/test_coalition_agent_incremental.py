@@ -9,7 +9,7 @@ import pytest
 from coalition_agents.core import load_capability_file
 from coalition_agents.core.agent import SchemaAgent
 from coalition_agents.core.capabilities import capability_file_from_dict
-from coalition_agents.core.channel_codec import OfferSummary
+from coalition_agents.core.transport.codec import OfferSummary
 from coalition_agents.core.errors import InformationError
 from coalition_agents.core.requests import InformationRequest, answers_request
 from coalition_agents.core.sim_scenarios import COLUMN_TYPES, capability_file, column_placements

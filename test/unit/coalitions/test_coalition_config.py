@@ -128,7 +128,7 @@ def test_capability_file_errors_name_the_file(library, tmp_path: Path):
     path.write_text('robot_types: [unclosed\n')
     with pytest.raises(ConfigError, match='invalid YAML'):
         load_capability_file(path, library)
-    with pytest.raises(ConfigError, match='cannot read file'):
+    with pytest.raises(ConfigError, match='missing.yaml.*does not exist'):
         load_capability_file(tmp_path / 'missing.yaml', library)
 
 

@@ -12,7 +12,7 @@ from coalition_agents.core.agent import SchemaAgent
 from coalition_agents.core.coalition_execution import CoalitionExecution
 from coalition_agents.core.errors import ConfigError
 from coalition_agents.core.information import Entity, InformationInstance
-from coalition_agents.core.information_stream import InformationStream
+from coalition_agents.core.transport.information_stream import InformationStream
 from coalition_agents.core.information_values import ValueUnavailable, evaluate
 
 from coalition_wire import Wire

@@ -4,11 +4,11 @@ import pytest
 
 from collab_tools.node_support import ConfigurationError
 from coalition_agents.agent_host import forwarded_parameter_files, forwarded_remappings
-from coalition_agents.agent_parameters import DYNAMIC, PARAMETERS, link_model, load_files, retry_policy
+from coalition_agents.core.settings import AGENT_SETTINGS, DYNAMIC, link_model, load_files, retry_policy
 
 
 def values(**changes):
-    return {**{name: default for name, (default, _, _) in PARAMETERS.items()}, **changes}
+    return {**AGENT_SETTINGS.defaults(), **changes}
 
 
 def test_the_host_forwards_its_remappings_but_not_its_name_or_namespace():
@@ -38,7 +38,7 @@ def test_capabilities_come_from_a_file_or_from_the_capabilities_parameter(config
     *_, from_file = load_files(file_values(config_dir, capability_file=str(path)))
     *_, inline = load_files(file_values(config_dir, capabilities=path.read_text()))
     assert inline == from_file and 'robot_blind' in inline.robots
-    assert PARAMETERS['capability_file'][0] == PARAMETERS['capabilities'][0] == ''  # neither is required alone
+    assert AGENT_SETTINGS['capability_file'].default == AGENT_SETTINGS['capabilities'].default == ''  # neither is required alone
 
 
 @pytest.mark.parametrize('changes, message', [
@@ -60,9 +60,10 @@ def test_capability_errors_name_the_parameter(config_dir, tmp_path, changes, mes
 
 
 def test_every_dynamic_parameter_is_declared_and_documented():
-    assert set(DYNAMIC) <= set(PARAMETERS)
+    assert set(DYNAMIC) <= set(AGENT_SETTINGS.names)
+    assert {s.name for s in AGENT_SETTINGS if s.dynamic} == set(DYNAMIC)
     for name in DYNAMIC:
-        assert 'dynamic' in PARAMETERS[name][1]
+        assert 'dynamic' in AGENT_SETTINGS[name].description
 
 
 def test_link_model_from_the_parameters():

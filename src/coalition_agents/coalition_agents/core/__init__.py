@@ -114,14 +114,12 @@ from .solution_space import (
     Constraints, PotentialSolution, SolutionSpace, SolutionSpaceCache, SolutionSpaceGenerator,
     SolutionStep, external_communication_allows, generality_imposition_allows, localness_allows,
 )
-from .requests import (
-    InformationOffer, InformationRequest, RequestLedger, addressees, request_variants, to_absolute,
-    to_local,
-)
-from .coalition import (
-    CoalitionSolution, LocalCoalitionSolution, RobotReasoner, SearchPlan, cheapest_per_members, coalition_cost,
+from .requests import InformationRequest, RequestLedger, addressees, request_variants, to_absolute, to_local
+from .coalition_solution import (
+    CoalitionSolution, InformationOffer, LocalCoalitionSolution, cheapest_per_members, coalition_cost,
     coalition_members,
 )
+from .coalition import RobotReasoner, SearchPlan
 from .coalition_search import CoalitionResult, CoalitionSearch, SearchStats, SensingModel, StaticSensing
 
 __all__ = [

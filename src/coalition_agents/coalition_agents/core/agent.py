@@ -68,12 +68,13 @@ from functools import cached_property
 from typing import Iterable, Mapping, Protocol, Sequence
 
 from .capabilities import RobotCapabilities
-from .coalition import LocalCoalitionSolution, RobotReasoner
+from .coalition import RobotReasoner
+from .coalition_solution import InformationOffer, LocalCoalitionSolution
 from .errors import RequestError
 from .information import InformationInstance
 from .live_sensing import LiveSensing
-from .requests import InformationOffer, InformationRequest, addressees, answers_request, to_absolute
-from .channel_codec import OfferSummary
+from .requests import InformationRequest, addressees, answers_request, to_absolute
+from .transport.codec import OfferSummary
 from .schemas import Costs, SchemaKind, SchemaLibrary
 from .solution_space import COST_DIGITS, PotentialSolution, SolutionSpaceCache
 from .tasks import Task

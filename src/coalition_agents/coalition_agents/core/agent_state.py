@@ -1,4 +1,4 @@
-"""The coalition agent's states, as ``coalition_interfaces/AgentStatus.state`` carries them.
+"""The coalition agent's states and status report, as ``coalition_interfaces/AgentStatus.state`` carries them.
 
 The values equal the message's ``uint8`` constants (``AgentStatus.COMMITTED == AgentState.COMMITTED``),
 so a status converts with ``AgentState(msg.state)``; :attr:`AgentState.label` is the lowercase name
@@ -6,6 +6,8 @@ used in logs, tables and results.json (``'committed'``).
 """
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from enum import IntEnum
 
 
@@ -33,3 +35,35 @@ class AgentState(IntEnum):
     def finished(self) -> bool:
         """A leader's final states (``exit_after`` waits for them)."""
         return self in (AgentState.COMPLETED, AgentState.FAILED)
+
+
+@dataclass(frozen=True)
+class StatusReport:
+    """What an agent reports (``coalition_interfaces/AgentStatus`` without the channel counters):
+    its typed state, its coalition and the stamps of its search (its own clock, s; None = not yet)."""
+
+    robot: str
+    state: AgentState
+    task: str
+    coalition_id: str = ''
+    leader: str = ''
+    members: tuple[str, ...] = ()
+    cost: float = 0.0
+    #: when the current search started (leaders; re-forming restarts it)
+    search_started: float | None = None
+    #: when this search first had an executable coalition, and that coalition's cost
+    coalition_found: float | None = None
+    found_cost: float = 0.0
+    #: when the coalition it is (or was last) committed to was set up
+    coalition_formed: float | None = None
+    #: when a driving leader's task ended (COMPLETED or FAILED)
+    task_finished: float | None = None
+    #: rank + 1 of the set-up coalition's potential solution (0 = none)
+    potential_solution: int = 0
+    reforms: int = 0
+    #: the motor schema's last distance to its goal, m (NaN before executing)
+    goal_distance: float = math.nan
+    requests_sent: int = 0
+    offers_received: int = 0
+    #: human-readable text only (what happened, why); never parsed
+    detail: str = ''

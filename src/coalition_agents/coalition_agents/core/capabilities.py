@@ -27,13 +27,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+from collab_tools.core.fields import Fields, load_config_file, parse_yaml_text
+
 from .errors import ConfigError, InformationError
 from .information import check_entity_name
 from .schemas import (
     Conversion, SchemaKind, SchemaLibrary, SensorSchema, check_listed_names, conversions_from_list,
     parse_field_instance,
 )
-from .validation import Section, load_config_file, parse_yaml_text
 
 #: The sensor name of task priors (dummy sensors of a priori information).
 PRIOR_SENSOR = 'prior'
@@ -72,20 +73,20 @@ class CapabilityFile:
 
 
 def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> RobotCapabilities:
-    section = Section(data, path, ('description', 'sensors', 'perceptual_schemas', 'motor_schemas'))
+    section = Fields(data, path, ('description', 'sensors', 'perceptual_schemas', 'motor_schemas'), error=ConfigError)
     sensors: list[SensorSchema] = []
     sensor_names: set[str] = set()
     for sensor_path, item in section.items('sensors', []):
-        entry = Section(item, sensor_path, ('name', 'provides'))
+        entry = Fields(item, sensor_path, ('name', 'provides'), error=ConfigError)
         sensor = entry.name('name')
         if sensor == PRIOR_SENSOR:
-            raise ConfigError(f"{entry.at('name')}: '{PRIOR_SENSOR}' is reserved for a task's a priori information")
+            raise ConfigError(f"{entry.path_of('name')}: '{PRIOR_SENSOR}' is reserved for a task's a priori information")
         if sensor in sensor_names:
-            raise ConfigError(f"{entry.at('name')}: sensor '{sensor}' is listed twice")
+            raise ConfigError(f"{entry.path_of('name')}: sensor '{sensor}' is listed twice")
         sensor_names.add(sensor)
         labels = entry.items('provides')
         if not labels:
-            raise ConfigError(f"{entry.at('provides')}: a sensor must provide at least one label")
+            raise ConfigError(f"{entry.path_of('provides')}: a sensor must provide at least one label")
         outputs = []
         for label_path, label in labels:
             output = parse_field_instance(library, label, label_path)
@@ -98,18 +99,18 @@ def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: s
                                 SchemaKind.PS, taken=set())
     for index, conversion in enumerate(own):
         if conversion.name in library_names:
-            raise ConfigError(f"{section.at('perceptual_schemas')}[{index}].name: '{conversion.name}' "
+            raise ConfigError(f"{section.path_of('perceptual_schemas')}[{index}].name: '{conversion.name}' "
                               f"shadows a library RPS of the same name")
     motor = check_listed_names(section.items('motor_schemas', []))
-    return RobotCapabilities(name, tuple(sensors), own, frozenset(motor), section.text('description', ''))
+    return RobotCapabilities(name, tuple(sensors), own, frozenset(motor), section.string('description', '', allow_empty=True))
 
 
 def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> CapabilityFile:
-    section = Section(data, path, ('robot_types', 'robots'))
+    section = Fields(data, path, ('robot_types', 'robots'), error=ConfigError)
     types = {name: capabilities_from_dict(value, library, name, entry_path)
              for entry_path, name, value in section.entries('robot_types')}
     if not types:
-        raise ConfigError(f"{section.at('robot_types')}: define at least one robot type")
+        raise ConfigError(f"{section.path_of('robot_types')}: define at least one robot type")
     robots: dict[str, RobotCapabilities] = {}
     for entry_path, robot, type_name in section.entries('robots', []):
         try:
@@ -125,10 +126,10 @@ def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '')
 
 def load_capability_file(path: str | Path, library: SchemaLibrary) -> CapabilityFile:
     """Read and validate a capability file (errors name the file and the field)."""
-    return load_config_file(path, lambda data: capability_file_from_dict(data, library, ''))
+    return load_config_file(path, lambda data: capability_file_from_dict(data, library, ''), ConfigError)
 
 
 def capability_file_from_text(text: str, library: SchemaLibrary) -> CapabilityFile:
     """Parse and validate a capability document given as YAML text (errors name the field; the
     caller names the text's origin, e.g. the parameter)."""
-    return capability_file_from_dict(parse_yaml_text(text), library, '')
+    return capability_file_from_dict(parse_yaml_text(text, ConfigError), library, '')

@@ -1,25 +1,5 @@
-"""Local coalition solutions, coalition solutions and their cost; one robot's reasoning steps.
-
-Paper, Sections IV-D and IV-F, Algorithm 2:
-
-* Definition 4.6 -- a *local coalition*: the local robot and the teammates that directly feed
-  it information (:attr:`CoalitionSolution.local_coalition`).
-* Definition 4.7 -- a *local coalition solution* (LCS): a potential solution after fully
-  instantiating all its information instances from the sensed information and the offers
-  received (:class:`LocalCoalitionSolution`, built by
-  :meth:`RobotReasoner.local_coalition_solutions`). Instantiation enforces the referent
-  instantiation constraint: one entity per variable across the whole solution, no instance
-  naming the same entity twice and (our addition, the paper is silent) no schema receiving
-  the same instance on two inputs; a potential solution for which no such instantiation
-  exists is not executable in the current situation.
-* Definition 4.8/4.9 -- a *coalition* includes the robots that support the local robot
-  indirectly; its *coalition solution* is the LCS plus, recursively, the solutions of the
-  required coalitions (each offer carries the helper's LCS) (:class:`CoalitionSolution`).
-* Coalition cost -- "the sum of all these costs" (:func:`coalition_cost`): each LCS's schemas
-  once (a CS pair -- requester's CS and helper's reply -- counts once, footnote 14, so a
-  helper's reply CS is not charged) plus, when the task names one, the helper MS "to maintain
-  the relative position" once per helper robot (footnote 14). With the paper's costs this gives
-  Table V's coalition costs 16 and 17.5 for potential solutions 2 and 3 of Table III.
+"""One robot's reasoning steps (paper Algorithm 2): what it senses, requests and offers, and its
+local coalition solutions (Definition 4.7) given what it sensed and was offered.
 
 :class:`RobotReasoner` is what a distributed ``schema_agent`` uses step by step (Algorithm 2):
 the ordered potential solutions of its task, the sensors and requests a potential solution
@@ -35,65 +15,17 @@ from typing import Iterable, Iterator, Mapping, Sequence
 from .capabilities import RobotCapabilities
 from .errors import CoalitionError, InformationError, RequestError
 from .information import Entity, InformationInstance, Variable, bind_to_ground, check_entity_name
+from .coalition_solution import (
+    CoalitionSolution, InformationOffer, LocalCoalitionSolution, coalition_cost, coalition_members,
+)
 from .requests import (
-    InformationOffer, InformationRequest, RequestLedger, addressees, answers_request, request_label,
-    request_variants, to_absolute,
+    InformationRequest, RequestLedger, addressees, answers_request, request_label, request_variants, to_absolute,
 )
 from .schemas import Costs, SchemaKind, SchemaLibrary
 from .solution_space import (
     COST_DIGITS, Constraints, PotentialSolution, SolutionSpace, SolutionSpaceCache, SolutionStep,
 )
 from .tasks import Task
-
-
-@dataclass(frozen=True, eq=False)
-class LocalCoalitionSolution:
-    """Definition 4.7: robot ``robot``'s potential solution, fully instantiated.
-
-    ``sources`` pairs each leaf of the potential solution (in order) with the instance that
-    feeds it and, for a CS leaf, the offer it came from. ``is_reply`` marks a solution that
-    answers another robot's request (its root CS is not charged, see :func:`coalition_cost`).
-    """
-
-    robot: str
-    potential_solution: PotentialSolution
-    binding: tuple[tuple[Variable, Entity], ...]
-    sources: tuple[tuple[SolutionStep, InformationInstance, InformationOffer | None], ...]
-    is_reply: bool
-    local_cost: float
-
-    def instantiate(self, instance: InformationInstance) -> InformationInstance:
-        """A label of the potential solution with this solution's entities (absolute frame)."""
-        return to_absolute(instance.substitute(dict(self.binding)), self.robot)
-
-    @property
-    def answer(self) -> InformationInstance | None:
-        """For a reply: the instance provided to the requester."""
-        root = self.potential_solution.root
-        return self.instantiate(root.output) if self.is_reply and root.output is not None else None
-
-    @property
-    def offers(self) -> tuple[InformationOffer, ...]:
-        return tuple(offer for _, _, offer in self.sources if offer is not None)
-
-    def step_lines(self) -> list[str]:
-        """This robot's schemas with their instantiated labels, one per line (pre-order)."""
-        lines = []
-        offers = iter(self.offers)
-        for step in self.potential_solution.root.walk():
-            if step.kind is SchemaKind.MS:
-                lines.append(f'MS {step.schema}')
-            elif step.kind in (SchemaKind.RPS, SchemaKind.PS):
-                inputs = ' + '.join(str(self.instantiate(s.output)) for s in step.inputs)  # type: ignore[arg-type]
-                lines.append(f'{step.kind.short} {step.schema}: {inputs} => {self.instantiate(step.output)}')
-            elif step.kind is SchemaKind.CS and step.inputs:
-                lines.append(f'CS reply: {self.instantiate(step.output)}')  # type: ignore[arg-type]
-            elif step.kind is SchemaKind.CS:
-                offer = next(offers)
-                lines.append(f'CS: {offer.instance} from {offer.provider}')
-            else:
-                lines.append(f'{step.kind.short} {step.schema}: {self.instantiate(step.output)}')  # type: ignore[arg-type]
-        return lines
 
 
 class _CompiledSolution:
@@ -112,90 +44,6 @@ class _CompiledSolution:
         #: the inputs of each schema with several inputs (they must stay distinct instances)
         self.input_groups = tuple(tuple(to_absolute(child.output, robot) for child in step.inputs)  # type: ignore[arg-type]
                                   for step in solution.root.walk() if len(step.inputs) > 1)
-
-
-def _summary(lcs: LocalCoalitionSolution) -> tuple[frozenset, frozenset[str], float]:
-    """(every distinct LCS of the coalition solution, their robots, the sum of their local
-    costs), cached per LCS. A coalition solution is a DAG: an offer shared by two branches is
-    one activation and is counted once."""
-    cached = lcs.__dict__.get('_summary')
-    if cached is not None:
-        return cached
-    children = [_summary(offer.solution) for offer in lcs.offers]
-    nodes = frozenset([lcs]).union(*(child[0] for child in children))
-    robots = frozenset([lcs.robot]).union(*(child[1] for child in children))
-    if len(nodes) == 1 + sum(len(child[0]) for child in children):
-        total = lcs.local_cost + sum(child[2] for child in children)  # no sharing
-    else:
-        total = sum(node.local_cost for node in nodes)
-    cached = (nodes, robots, total)
-    object.__setattr__(lcs, '_summary', cached)
-    return cached
-
-
-def coalition_members(root: LocalCoalitionSolution) -> tuple[str, ...]:
-    """Definition 4.8: the root robot first, then every robot supporting it, sorted."""
-    others = sorted(_summary(root)[1] - {root.robot})
-    return (root.robot, *others)
-
-
-def coalition_cost(root: LocalCoalitionSolution, helper_motor_schema_cost: float = 0.0,
-                   *, root_is_helped: bool = True) -> float:
-    """The coalition cost: every distinct LCS's schemas plus a helper MS per helper robot.
-
-    With ``root_is_helped=False`` every member counts as a helper (the cost of an offer as
-    seen by a requester outside the coalition).
-    """
-    _, robots, total = _summary(root)
-    helpers = len(robots - {root.robot}) if root_is_helped else len(robots)
-    return round(total + helper_motor_schema_cost * helpers, COST_DIGITS)
-
-
-@dataclass(frozen=True, eq=False)
-class CoalitionSolution:
-    """Definition 4.9: an LCS with its required coalitions' solutions, and its coalition cost."""
-
-    root: LocalCoalitionSolution
-    cost: float
-    members: tuple[str, ...]
-
-    @property
-    def robot(self) -> str:
-        return self.root.robot
-
-    @property
-    def local_coalition(self) -> tuple[str, ...]:
-        """Definition 4.6: the robot and the teammates that directly feed it information."""
-        direct = sorted({offer.provider for offer in self.root.offers} - {self.root.robot})
-        return (self.root.robot, *direct)
-
-    def describe(self) -> str:
-        """Multi-line text: each robot's instantiated schemas, helpers indented below."""
-        lines = [f'coalition of {", ".join(self.members)}: cost {self.cost:g} '
-                 f'(potential solution {self.root.potential_solution.rank + 1}, '
-                 f'{self.root.potential_solution.cost:g})']
-
-        def add(lcs: LocalCoalitionSolution, depth: int, seen: set[int]) -> None:
-            indent = '  ' * depth
-            header = (f'{lcs.robot} provides {lcs.answer}' if lcs.is_reply else f'{lcs.robot}')
-            lines.append(f'{indent}{header}:')
-            lines.extend(f'{indent}  {line}' for line in lcs.step_lines())
-            if id(lcs) in seen:
-                return
-            seen.add(id(lcs))
-            for offer in lcs.offers:
-                add(offer.solution, depth + 1, seen)
-
-        add(self.root, 1, set())
-        return '\n'.join(lines)
-
-    def to_dict(self) -> dict:
-        def lcs_dict(lcs: LocalCoalitionSolution) -> dict:
-            return {'robot': lcs.robot, 'provides': None if lcs.answer is None else str(lcs.answer),
-                    'cost': lcs.local_cost, 'schemas': lcs.step_lines(),
-                    'helpers': [lcs_dict(offer.solution) for offer in lcs.offers]}
-        return {'cost': self.cost, 'members': list(self.members),
-                'potential_solution': self.root.potential_solution.rank + 1, 'solution': lcs_dict(self.root)}
 
 
 @dataclass(frozen=True)
@@ -530,21 +378,4 @@ class RobotReasoner:
                                 coalition_cost(lcs, self.helper_motor_schema_cost, root_is_helped=False))
 
 
-def sort_coalitions(solutions: Iterable[CoalitionSolution]) -> list[CoalitionSolution]:
-    """Non-descending coalition cost; ties by potential-solution rank, then members and text."""
-    return sorted(solutions, key=lambda s: (s.cost, s.root.potential_solution.rank, s.members,
-                                            tuple(s.root.step_lines())))
-
-
-def cheapest_per_members(solutions: Iterable[CoalitionSolution]) -> list[CoalitionSolution]:
-    """One solution per distinct set of members (the cheapest): the paper's count of coalitions."""
-    best: dict[frozenset[str], CoalitionSolution] = {}
-    for solution in sort_coalitions(solutions):
-        best.setdefault(frozenset(solution.members), solution)
-    return sort_coalitions(best.values())
-
-
-__all__ = [
-    'CoalitionSolution', 'LocalCoalitionSolution', 'RobotReasoner', 'SearchPlan', 'cheapest_per_members',
-    'coalition_cost', 'coalition_members', 'sort_coalitions',
-]
+__all__ = ['RobotReasoner', 'SearchPlan']

@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from .coalition import LocalCoalitionSolution
+from .coalition_solution import LocalCoalitionSolution
 from .errors import ConfigError
 from .information import InformationInstance
 from .schemas import SchemaKind

@@ -42,13 +42,14 @@ from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Protocol, Sequence
 
 from .capabilities import RobotCapabilities
-from .coalition import (
-    CoalitionSolution, LocalCoalitionSolution, RobotReasoner, cheapest_per_members, coalition_cost,
+from .coalition import RobotReasoner
+from .coalition_solution import (
+    CoalitionSolution, InformationOffer, LocalCoalitionSolution, cheapest_per_members, coalition_cost,
     sort_coalitions,
 )
 from .errors import CoalitionError, InformationError, SearchError
 from .information import InformationInstance, check_entity_name
-from .requests import InformationOffer, InformationRequest, addressees, answers_request
+from .requests import InformationRequest, addressees, answers_request
 from .schemas import Costs, SchemaLibrary
 from .solution_space import Constraints, PotentialSolution, SolutionSpaceCache
 from .tasks import Task

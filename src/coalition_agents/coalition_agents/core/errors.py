@@ -3,10 +3,12 @@
 Every message starts with what is wrong and where (a file's dotted field path, or the
 request field), so a user or a node's log names the mistake without a traceback.
 """
+from collab_tools.core.errors import ConfigurationError
 
 
-class CoalitionError(ValueError):
-    """Base class of every error the coalition core raises on bad input."""
+class CoalitionError(ConfigurationError):
+    """Base class of every error the coalition core raises on bad input (a ConfigurationError,
+    so a node that cannot start with it exits 2 with the message)."""
 
 
 class ConfigError(CoalitionError):

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from typing import Callable, Mapping, Sequence
 
-from .coalition import LocalCoalitionSolution
+from .coalition_solution import LocalCoalitionSolution
 from .errors import RequestError
 from .information import InformationInstance
 from .schemas import SchemaKind

@@ -28,7 +28,7 @@ from typing import Iterable, Mapping
 from .capabilities import RobotCapabilities
 from .errors import ConfigError
 from .information import Entity, InformationInstance
-from .information_stream import check_value
+from .value_fields import check_value
 from .requests import to_absolute
 
 

@@ -33,16 +33,13 @@ it), so a stateless responder can apply the constraint too.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from .errors import InformationError, RequestError
 from .information import (
     LOCAL, Entity, EntityCatalog, InformationInstance, InformationTypes, bind_to_ground, canonical_instance,
     parse_instance,
 )
-
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from .coalition import LocalCoalitionSolution
 
 
 def to_absolute(instance: InformationInstance, robot: str) -> InformationInstance:
@@ -121,26 +118,6 @@ def _label_field(value: Any, path: str, types: InformationTypes, catalog: Entity
     return canonical_instance(label)
 
 
-@dataclass(frozen=True, eq=False)
-class InformationOffer:
-    """A helper's answer: ``provider`` can provide ``instance`` (fully instantiated, absolute)
-    for ``request`` (the label as requested), through its coalition ``solution``.
-
-    ``cost`` is the cost of the helper's coalition: its schemas (the reply CS excluded: the
-    requester's CS pays for the pair, footnote 14), its helpers' coalitions and a helper MS for
-    every robot in it (if the task has one).
-    """
-
-    provider: str
-    request: InformationInstance
-    instance: InformationInstance
-    solution: 'LocalCoalitionSolution'
-    cost: float
-
-    def __str__(self) -> str:
-        return f'{self.provider} offers {self.instance} (cost {self.cost:g})'
-
-
 def addressees(label: InformationInstance, robots: Sequence[str]) -> tuple[str, ...]:
     """The robots a request for ``label`` (absolute) is sent to, in team order."""
     named = {r.name for r in label.referents if isinstance(r, Entity) and r.robot}
@@ -197,6 +174,6 @@ class RequestLedger:
 
 
 __all__ = [
-    'InformationOffer', 'InformationRequest', 'RequestLedger', 'addressees', 'answers_request',
+    'InformationRequest', 'RequestLedger', 'addressees', 'answers_request',
     'request_label', 'request_variants', 'to_absolute', 'to_local',
 ]

@@ -27,12 +27,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from collab_tools.core.fields import Fields, check_name, check_number, load_config_file
+
 from .errors import ConfigError, InformationError
 from .information import (
     EntityCatalog, InformationInstance, InformationType, InformationTypes, Variable,
     check_entity_name, fresh_variable, match_template, parse_instance, split_conversion,
 )
-from .validation import Section, as_name, as_number, load_config_file
 
 
 class SchemaKind(str, enum.Enum):
@@ -85,17 +86,17 @@ COST_FIELDS = ('rps', 'ps', 'es_eps', 'cs', 'ms', 'prior', 'motor_schemas')
 
 def costs_from_dict(data: Any, path: str = '') -> Costs:
     """Read costs; reasoning schemas must cost > 0 so that every loop adds cost (termination)."""
-    section = Section(data, path, COST_FIELDS)
+    section = Fields(data, path, COST_FIELDS, error=ConfigError)
     defaults = Costs()
     values = {key: section.number(key, getattr(defaults, key), gt=0.0) for key in ('rps', 'ps', 'es_eps', 'cs')}
     values.update({key: section.number(key, getattr(defaults, key), ge=0.0) for key in ('ms', 'prior')})
-    overrides = {name: as_number(value, entry_path, ge=0.0)
+    overrides = {name: check_number(value, entry_path, ge=0.0, error=ConfigError)
                  for entry_path, name, value in section.entries('motor_schemas', [])}
     return Costs(motor_schemas=overrides, **values)
 
 
 def load_costs(path: str | Path) -> Costs:
-    return load_config_file(path, lambda data: costs_from_dict(data, ''))
+    return load_config_file(path, lambda data: costs_from_dict(data, ''), ConfigError)
 
 
 # --- Sensors (ES-EPS pairs and prior sources) -----------------------------------------------------
@@ -194,16 +195,16 @@ def conversions_from_list(items: Sequence[tuple[str, Any]], types: InformationTy
     names = set() if taken is None else taken
     conversions = []
     for path, item in items:
-        section = Section(item, path, ('name', 'conversion', 'description'))
+        section = Fields(item, path, ('name', 'conversion', 'description'), error=ConfigError)
         name = section.name('name')
         if name in names:
-            raise ConfigError(f"{section.at('name')}: schema name '{name}' is used twice")
+            raise ConfigError(f"{section.path_of('name')}: schema name '{name}' is used twice")
         names.add(name)
         try:
-            conversions.append(parse_conversion(name, section.get('conversion'), types, catalog, kind,
-                                                section.text('description', '')))
+            conversions.append(parse_conversion(name, section.raw('conversion'), types, catalog, kind,
+                                                section.string('description', '', allow_empty=True)))
         except InformationError as exc:
-            raise ConfigError(f"{section.at('conversion')}: {exc}") from None
+            raise ConfigError(f"{section.path_of('conversion')}: {exc}") from None
     return tuple(conversions)
 
 
@@ -236,37 +237,37 @@ LIBRARY_FIELDS = ('information_types', 'objects', 'reduction_schemas')
 
 
 def library_from_dict(data: Any, path: str = '') -> SchemaLibrary:
-    section = Section(data, path, LIBRARY_FIELDS)
+    section = Fields(data, path, LIBRARY_FIELDS, error=ConfigError)
     types = []
     for entry_path, label, value in section.entries('information_types'):
-        entry = Section(value, entry_path, ('referents', 'description'))
+        entry = Fields(value, entry_path, ('referents', 'description'), error=ConfigError)
         referents = entry.number('referents', ge=0.0)
         if referents != int(referents):
-            raise ConfigError(f"{entry.at('referents')}: must be a whole number (got {referents})")
-        types.append(InformationType(label, int(referents), entry.text('description', '')))
+            raise ConfigError(f"{entry.path_of('referents')}: must be a whole number (got {referents})")
+        types.append(InformationType(label, int(referents), entry.string('description', '', allow_empty=True)))
     registry = InformationTypes(types)
     objects = []
     for item_path, item in section.items('objects', []):
         try:
-            objects.append(check_entity_name(as_name(item, item_path)))
+            objects.append(check_entity_name(check_name(item, item_path, ConfigError)))
         except InformationError as exc:
             raise ConfigError(f'{item_path}: {exc}') from None
     if len(set(objects)) != len(objects):
-        raise ConfigError(f"{section.at('objects')}: an object is listed twice")
+        raise ConfigError(f"{section.path_of('objects')}: an object is listed twice")
     catalog = EntityCatalog(objects=frozenset(objects))
     reductions = conversions_from_list(section.items('reduction_schemas', []), registry, catalog, SchemaKind.RPS)
     return SchemaLibrary(registry, catalog, reductions)
 
 
 def load_library(path: str | Path) -> SchemaLibrary:
-    return load_config_file(path, lambda data: library_from_dict(data, ''))
+    return load_config_file(path, lambda data: library_from_dict(data, ''), ConfigError)
 
 
 def check_listed_names(items: Sequence[tuple[str, Any]]) -> tuple[str, ...]:
     """Names in a YAML list, each valid and unique."""
     names: list[str] = []
     for path, item in items:
-        name = as_name(item, path)
+        name = check_name(item, path, ConfigError)
         if name in names:
             raise ConfigError(f"{path}: '{name}' is listed twice")
         names.append(name)

@@ -25,11 +25,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from collab_tools.core.fields import Fields, load_config_file
+
 from .capabilities import PRIOR_SENSOR
 from .errors import ConfigError
 from .information import Entity, InformationInstance, check_entity_name
 from .schemas import SchemaKind, SchemaLibrary, SensorSchema, parse_field_instance
-from .validation import Section, load_config_file
 
 
 @dataclass(frozen=True)
@@ -68,12 +69,12 @@ class Task:
 
 
 def task_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> Task:
-    section = Section(data, path, ('description', 'motor_schema', 'requires', 'prior', 'helper_motor_schema'))
+    section = Fields(data, path, ('description', 'motor_schema', 'requires', 'prior', 'helper_motor_schema'), error=ConfigError)
     requires = tuple(parse_field_instance(library, value, item_path) for item_path, value in section.items('requires'))
     if not requires:
-        raise ConfigError(f"{section.at('requires')}: a task must require at least one information instance")
+        raise ConfigError(f"{section.path_of('requires')}: a task must require at least one information instance")
     if len(set(requires)) != len(requires):
-        raise ConfigError(f"{section.at('requires')}: an instance is listed twice")
+        raise ConfigError(f"{section.path_of('requires')}: an instance is listed twice")
     prior = []
     for item_path, value in section.items('prior', []):
         instance = parse_field_instance(library, value, item_path)
@@ -81,23 +82,23 @@ def task_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> T
             raise ConfigError(f'{item_path}: a priori information must name objects only '
                               f'(no variables, no local robot), got {instance}')
         prior.append(instance)
-    helper = section.get('helper_motor_schema', None)
+    helper = section.raw('helper_motor_schema', None)
     return Task(name, section.name('motor_schema'), requires, tuple(prior),
-                None if helper is None else section.name('helper_motor_schema'), section.text('description', ''))
+                None if helper is None else section.name('helper_motor_schema'), section.string('description', '', allow_empty=True))
 
 
 def tasks_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> dict[str, Task]:
-    section = Section(data, path, ('tasks',))
+    section = Fields(data, path, ('tasks',), error=ConfigError)
     tasks = {name: task_from_dict(value, library, name, entry_path)
              for entry_path, name, value in section.entries('tasks')}
     if not tasks:
-        raise ConfigError(f"{section.at('tasks')}: define at least one task")
+        raise ConfigError(f"{section.path_of('tasks')}: define at least one task")
     return tasks
 
 
 def load_tasks(path: str | Path, library: SchemaLibrary) -> dict[str, Task]:
     """Read and validate a tasks file (errors name the file and the field)."""
-    return load_config_file(path, lambda data: tasks_from_dict(data, library, ''))
+    return load_config_file(path, lambda data: tasks_from_dict(data, library, ''), ConfigError)
 
 
 __all__ = ['Task', 'load_tasks', 'task_from_dict', 'tasks_from_dict']

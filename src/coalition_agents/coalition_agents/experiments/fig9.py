@@ -109,8 +109,8 @@ def fig9_markdown(results: dict, acceptance: dict) -> str:
         lines.append(f'| {r["robots"]} | {fmt(r.get("time_s"))} | {fmt(r.get("formed_s"))} | {r["search_time_s"]:g} | '
                      f'{paper} | {r.get("state")} | {len(r.get("members", []))} | {cost} | {r.get("messages", 0)} / '
                      f'{r.get("ros_messages", 0)} |')
-    lines += ['', '- found: the back robot\'s status reporting its first executable coalition (from the bag); '
-              'the paper\'s Fig. 9 measures this ("time to find the coalition solution").',
+    lines += ['', '- found: when the back robot first had an executable coalition (its AgentStatus coalition_found '
+              'stamp, from the bag); the paper\'s Fig. 9 measures this ("time to find the coalition solution").',
               '- formed: its committed AgentStatus. The node negotiates once its cheapest coalition has not '
               'improved for settle_time, or at search_time at the latest.',
               '- The paper: about 28 s for ten robots with fixed 0.2 s gaps (T_G, T_C) between steps; ours is '

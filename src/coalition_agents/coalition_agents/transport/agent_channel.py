@@ -1,7 +1,7 @@
 """The agent-to-agent channel of a coalition agent on ROS 2: one inbox topic per robot carrying
-batches, a link model on the sending side, retries and commitments from :mod:`.core.reliable_channel`.
+batches, a link model on the sending side, retries and commitments from :mod:`..core.transport.reliable_channel`.
 
-Aggregation (:mod:`.core.batching`): an agent does not publish its logical messages one by one.
+Aggregation (:mod:`..core.transport.batching`): an agent does not publish its logical messages one by one.
 It buffers them per recipient and publishes, at the end of each processing step, ONE
 ``coalition_interfaces/AgentMessageBatch`` per recipient on that robot's inbox
 ``<team>/coalition/channel/<robot>`` (:func:`inbox_topic`; ``/coalition/channel/<robot>`` with the
@@ -18,20 +18,20 @@ one robot leave as one batch. Why: one ROS message per logical message (plus one
 ~12,000-31,000 ROS messages for the Fig. 9 column of 10; their per-message cost in rclpy, not the
 algorithm, starved the agents.
 
-Each batch goes through the sender's :class:`~.core.link_model.LinkModel`: ONE loss draw and ONE
+Each batch goes through the sender's :class:`~..core.transport.link_model.LinkModel`: ONE loss draw and ONE
 delay sample per batch (a lost batch loses every message and ack in it; the retries re-send the
 unacknowledged ones, each retry only the logical messages still unanswered). So an experiment's
 loss probability is per batch. Delayed batches wait in one queue per agent, drained on the
 channel's ``tick_s`` timer, at each flush and whenever a batch arrives: a batch leaves at its
 sampled delay or up to ``tick_s`` later.
 
-Received batches are validated (:func:`~.core.batching.decode_batch`: a batch from an unknown
+Received batches are validated (:func:`~..core.transport.batching.decode_batch`: a batch from an unknown
 robot or for another robot is logged and dropped whole; a malformed message inside a batch is
 logged and dropped alone, the others are processed), run through the
-:class:`~.core.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
+:class:`~..core.transport.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
 ACKs, commitment answers) and handed to ``on_message``: negotiation messages at once, requests,
 offers and streamed values in slices of at most ``work_slice_s`` of the agent's processing
-(steps of a :class:`~.core.cooperative_work.CooperativeWork` queue: the channel's own, or the one
+(steps of a :class:`~..core.cooperative_work.CooperativeWork` queue: the channel's own, or the one
 a schema_agent_host shares between its agents), so the inbox is drained -- and every message acknowledged -- without
 waiting for the agent's reasoning, and a COMMIT_REQUEST is never queued behind it. The channel
 never raises from a ROS callback.
@@ -66,12 +66,14 @@ from rclpy.qos import QoSProfile
 
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
-from .core.batching import Batch, InboxQueue, Outbox, decode_batch
-from .core.cooperative_work import CooperativeWork
-from .core.channel_codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
-from .core.errors import CoalitionError
-from .core.link_model import LinkModel
-from .core.reliable_channel import Negotiation, Received, ReliableChannel, RetryPolicy, Undelivered
+from ..core.transport.batching import Batch, InboxQueue, Outbox, decode_batch
+from ..core.cooperative_work import CooperativeWork
+from ..core.transport.codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
+from ..core.errors import CoalitionError
+from ..core.transport.link_model import LinkModel
+from ..core.transport.commitments import Negotiation
+from ..core.transport.reliable_channel import Received, ReliableChannel, Undelivered
+from ..core.transport.retry import RetryPolicy
 
 #: the channel under the team namespace (``names.team(CHANNEL_TOPIC)``)
 CHANNEL_TOPIC = 'coalition/channel'
@@ -154,7 +156,7 @@ def batch_to_ros(batch: Batch) -> AgentMessageBatch:
 
 
 def batch_from_ros(msg: AgentMessageBatch) -> dict:
-    """The dict form :func:`~.core.batching.decode_batch` reads; ``messages`` stay AgentMessages
+    """The dict form :func:`~..core.transport.batching.decode_batch` reads; ``messages`` stay AgentMessages
     (converted one by one with :func:`from_ros`, so one malformed message fails alone)."""
     return {'sender': msg.sender, 'recipient': msg.recipient, 'sequence': int(msg.sequence),
             'messages': list(msg.messages), 'acked_ids': [int(acked) for acked in msg.acked_ids]}
@@ -391,7 +393,7 @@ class AgentChannel:
 
     def _receive(self, message: ChannelMessage, now: float, deliver_urgent: bool = True) -> None:
         """Acknowledge / answer at once and queue the message for the agent
-        (:class:`~.core.batching.InboxQueue`): negotiation messages are handed over at the end of
+        (:class:`~..core.transport.batching.InboxQueue`): negotiation messages are handed over at the end of
         the callback (``deliver_urgent``; a batch's all at once), the others in time slices
         (:meth:`_on_work`), so that the inbox never waits behind the agent's reasoning: a
         COMMIT_REQUEST is answered while the helper is still busy with requests and offers, and

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import pytest
 
-from coalition_agents.core.batching import Outbox, decode_batch, piggybacked_ack, processing_order
-from coalition_agents.core.channel_codec import (
+from coalition_agents.core.transport.batching import Outbox, decode_batch, piggybacked_ack, processing_order
+from coalition_agents.core.transport.codec import (
     ChannelCodec, MessageKind, commit_request_message, release_message, request_message,
 )
 from coalition_agents.core.errors import ConfigError, RequestError
-from coalition_agents.core.reliable_channel import ReliableChannel, RetryPolicy
+from coalition_agents.core.transport.reliable_channel import ReliableChannel
+from coalition_agents.core.transport.retry import RetryPolicy
 from coalition_agents.core.requests import InformationRequest
 
 TEAM = ('robot_1', 'robot_2', 'robot_3')

@@ -11,13 +11,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from coalition_agents.core.channel_codec import (
+from coalition_agents.core.transport.codec import (
     ChannelCodec, ChannelMessage, MessageKind, OfferSummary, commit_request_message, information_message,
     offer_message, release_message, reply_message, request_message,
 )
 from coalition_agents.core.errors import ConfigError, RequestError
-from coalition_agents.core.link_model import PRESETS, LinkModel
-from coalition_agents.core.reliable_channel import CommitmentLedger, ReliableChannel, RetryPolicy
+from coalition_agents.core.transport.link_model import PRESETS, LinkModel
+from coalition_agents.core.transport.commitments import CommitmentLedger
+from coalition_agents.core.transport.reliable_channel import ReliableChannel
+from coalition_agents.core.transport.retry import RetryPolicy
 from coalition_agents.core.requests import InformationRequest
 
 TEAM = ('robot_1', 'robot_2', 'robot_3', 'robot_4', 'robot_5', 'robot_6')
@@ -225,7 +227,7 @@ def test_codec_rejects_non_messages(codec, payload, message):
 
 def test_ros_message_conversion_round_trips(library, codec):
     """AgentMessage <-> dict (the node adapter's conversion) loses nothing the codec checks."""
-    from coalition_agents.agent_channel import from_ros, to_ros
+    from coalition_agents.transport.agent_channel import from_ros, to_ros
     from coalition_interfaces.msg import AgentMessage
     for message in sample_messages(library):
         ros = to_ros(message)
@@ -238,7 +240,7 @@ def test_ros_message_conversion_round_trips(library, codec):
 
 def test_ros_information_message_carries_typed_values(library):
     """The streamed value is in AgentMessage.values (NamedValue[]), not text in ``reason``."""
-    from coalition_agents.agent_channel import to_ros
+    from coalition_agents.transport.agent_channel import to_ros
     from coalition_interfaces.msg import AgentMessage
     ros = to_ros(sample_messages(library)[-1])
     assert ros.kind == AgentMessage.INFORMATION == int(MessageKind.INFORMATION)
@@ -276,7 +278,7 @@ def named(*pairs):
 ])
 def test_malformed_ros_information_messages_are_rejected_naming_the_field(codec, changes, message):
     """What a peer (or a bug) can put on the wire: the codec rejects it, the channel logs and drops it."""
-    from coalition_agents.agent_channel import from_ros
+    from coalition_agents.transport.agent_channel import from_ros
     assert codec.decode(from_ros(ros_information())).values == (('x', 1.0), ('y', 2.0))  # the base is valid
     with pytest.raises(RequestError) as caught:
         codec.decode(from_ros(ros_information(**changes)))

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import pytest
 
-from coalition_agents.core.batching import InboxQueue, piggybacked_ack
-from coalition_agents.core.channel_codec import (
+from coalition_agents.core.transport.batching import InboxQueue, piggybacked_ack
+from coalition_agents.core.transport.codec import (
     MessageKind, OfferSummary, commit_request_message, offer_message, release_message, request_message,
 )
 from coalition_agents.core.information import Entity
-from coalition_agents.core.reliable_channel import ReliableChannel, RetryPolicy
+from coalition_agents.core.transport.reliable_channel import ReliableChannel
+from coalition_agents.core.transport.retry import RetryPolicy
 from coalition_agents.core.requests import InformationRequest
 
 TEAM = ('robot_1', 'robot_2', 'robot_3')

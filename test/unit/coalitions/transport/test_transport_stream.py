@@ -8,7 +8,8 @@ import pytest
 
 from coalition_agents.core.errors import RequestError
 from coalition_agents.core.information import Entity, InformationInstance
-from coalition_agents.core.information_stream import MAX_FIELDS, InformationStream, check_value, check_value_fields
+from coalition_agents.core.transport.information_stream import InformationStream
+from coalition_agents.core.value_fields import MAX_FIELDS, check_value, check_value_fields
 from coalition_agents.core.information_values import (
     ValueUnavailable, global_from_relative, relative_composition, relative_inverse, torque_from_force,
 )
@@ -81,8 +82,8 @@ def test_torque_is_the_cross_product_of_offset_and_force():
 
 # --- the INFORMATION message of the agent channel ------------------------------------------------
 
-from coalition_agents.core.channel_codec import ChannelCodec, MessageKind, information_message  # noqa: E402
-from coalition_agents.core.reliable_channel import ReliableChannel  # noqa: E402
+from coalition_agents.core.transport.codec import ChannelCodec, MessageKind, information_message  # noqa: E402
+from coalition_agents.core.transport.reliable_channel import ReliableChannel  # noqa: E402
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ logical messages, each acknowledged). Carried one by one, the transport's fixed 
 dominated the search time. The standard fix is aggregation, which leaves the algorithm and the
 reliable channel (:mod:`.reliable_channel`: ids, retries, exactly-once, commitments) unchanged:
 
-* :class:`Outbox`: an agent puts every outgoing logical message (:class:`~.channel_codec.ChannelMessage`)
+* :class:`Outbox`: an agent puts every outgoing logical message (:class:`~.codec.ChannelMessage`)
   into a per-recipient buffer and at the end of its processing step takes them out as one
   :class:`Batch` per recipient. An ACK is not a message of its own: its acknowledged id rides in
   ``acked_ids`` of the next batch to that robot (piggybacked). A recipient with only acks waiting
@@ -20,7 +20,7 @@ reliable channel (:mod:`.reliable_channel`: ids, retries, exactly-once, commitme
   ``coalition_interfaces/AgentMessageBatch``) into the messages to hand to
   :meth:`~.reliable_channel.ReliableChannel.receive`: the piggybacked acks as ACK messages
   first, then the messages in :func:`processing_order`. A malformed batch header raises
-  :class:`~.errors.RequestError` naming the field; a malformed message inside a batch is reported
+  :class:`~..errors.RequestError` naming the field; a malformed message inside a batch is reported
   in :attr:`DecodedBatch.rejected` and the others are still delivered.
 * :class:`InboxQueue`: what the receiver's reliable channel delivers waits here for the agent,
   negotiation messages before requests, offers and streamed values. The transport's callback
@@ -40,9 +40,10 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any, Callable, Generic, Mapping, Sequence, TypeVar
 
-from .channel_codec import MAX_MESSAGE_ID, ChannelCodec, ChannelMessage, MessageKind
-from .errors import ConfigError, RequestError
-from .validation import describe_type
+from collab_tools.core.fields import type_name as describe_type
+
+from .codec import MAX_MESSAGE_ID, ChannelCodec, ChannelMessage, MessageKind
+from ..errors import ConfigError, RequestError
 
 #: Negotiation messages: flushed at once and processed first within a batch.
 URGENT_KINDS = frozenset({MessageKind.COMMIT_REQUEST, MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT,

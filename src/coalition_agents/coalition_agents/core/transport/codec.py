@@ -5,8 +5,8 @@ what they can provide, and set up the least-cost coalition by request-and-wait n
 On the channel these are :class:`ChannelMessage` s of the kinds in :class:`MessageKind`:
 
 =================  ============================================================================
-REQUEST            an :class:`~.requests.InformationRequest` (requester = sender, label, chain)
-OFFER              an :class:`OfferSummary`: the wire form of an :class:`~.requests.InformationOffer`
+REQUEST            an :class:`~..requests.InformationRequest` (requester = sender, label, chain)
+OFFER              an :class:`OfferSummary`: the wire form of an :class:`~..requests.InformationOffer`
 ACK                receipt of a REQUEST, OFFER or RELEASE (``in_reply_to``)
 COMMIT_REQUEST     join coalition ``coalition_id`` (members, cost, hold time)
 COMMIT_ACCEPT/     the answer to a COMMIT_REQUEST (it acknowledges it too)
@@ -32,7 +32,7 @@ Decoding checks everything a remote robot could get wrong -- an unknown kind, an
 information type (against the agent's schema library), a malformed or unknown referent, a
 wrong arity, an unknown robot, a streamed value with an unknown, repeated, missing or
 non-finite field (:func:`~.information_stream.check_value_fields`) -- and raises
-:class:`~.errors.RequestError` (a ``ValueError``) whose message starts with the field path,
+:class:`~..errors.RequestError` (a ``ValueError``) whose message starts with the field path,
 e.g. ``message.label.referents[1]: ...`` or ``message.values.x: must be a finite number``.
 """
 from __future__ import annotations
@@ -43,14 +43,15 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Any, Mapping, Sequence
 
-from .errors import InformationError, RequestError
-from .information import (
+from collab_tools.core.fields import type_name as describe_type
+
+from ..errors import InformationError, RequestError
+from ..information import (
     IDENTIFIER_PATTERN, VARIABLE_PATTERN, EntityCatalog, InformationInstance, InformationTypes, Variable,
     canonical_instance,
 )
-from .information_stream import check_value_fields
-from .requests import InformationRequest
-from .validation import describe_type
+from ..value_fields import check_value_fields
+from ..requests import InformationRequest
 
 #: Largest message id (the ROS field is uint64).
 MAX_MESSAGE_ID = 2 ** 64 - 1

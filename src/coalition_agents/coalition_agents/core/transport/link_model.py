@@ -33,8 +33,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .errors import ConfigError
-from .validation import Section, as_mapping, describe_type
+from collab_tools.core.fields import Fields, require_mapping, type_name as describe_type
+
+from ..errors import ConfigError
 
 DISTRIBUTIONS = ('normal', 'constant', 'uniform')
 
@@ -78,12 +79,12 @@ class DelayDistribution:
 
     @classmethod
     def from_dict(cls, data: Any, path: str = 'delay') -> 'DelayDistribution':
-        mapping = as_mapping(data, path)
-        kind = Section(mapping, path, ('distribution', 'mean_s', 'std_s', 'value_s', 'low_s', 'high_s')).text(
-            'distribution')
+        mapping = require_mapping(data, path, ConfigError)
+        kind = Fields(mapping, path, ('distribution', 'mean_s', 'std_s', 'value_s', 'low_s', 'high_s'),
+                      error=ConfigError).string('distribution', allow_empty=True)
         if kind not in DISTRIBUTIONS:
             raise ConfigError(f"{path}.distribution: unknown distribution '{kind}' (allowed: {', '.join(DISTRIBUTIONS)})")
-        section = Section(mapping, path, _DISTRIBUTION_FIELDS[kind])
+        section = Fields(mapping, path, _DISTRIBUTION_FIELDS[kind], error=ConfigError)
         if kind == 'normal':
             return cls(kind, mean_s=section.number('mean_s'), std_s=section.number('std_s', ge=0.0))
         if kind == 'constant':
@@ -163,27 +164,27 @@ class LinkModel:
     @classmethod
     def from_dict(cls, data: Any, path: str = 'link') -> 'LinkModel':
         """A validated link model; ``preset`` gives defaults that the other fields override."""
-        section = Section(data, path, ('preset', 'delay', 'loss_probability', 'seed'))
+        section = Fields(data, path, ('preset', 'delay', 'loss_probability', 'seed'), error=ConfigError)
         base: Mapping[str, Any] = {}
         if 'preset' in section.data:
-            name = section.text('preset')
+            name = section.string('preset', allow_empty=True)
             if name not in PRESETS:
-                raise ConfigError(f"{section.at('preset')}: unknown preset '{name}' (known: {', '.join(sorted(PRESETS))})")
+                raise ConfigError(f"{section.path_of('preset')}: unknown preset '{name}' (known: {', '.join(sorted(PRESETS))})")
             base = PRESETS[name]
         if 'delay' in section.data:
-            delay = DelayDistribution.from_dict(section.get('delay'), section.at('delay'))
+            delay = DelayDistribution.from_dict(section.raw('delay'), section.path_of('delay'))
         elif base:
-            delay = DelayDistribution.from_dict(base['delay'], section.at('delay'))
+            delay = DelayDistribution.from_dict(base['delay'], section.path_of('delay'))
         else:
-            raise ConfigError(f"{section.at('delay')}: missing required field (or give a preset: "
+            raise ConfigError(f"{section.path_of('delay')}: missing required field (or give a preset: "
                               f"{', '.join(sorted(PRESETS))})")
-        loss = section.get('loss_probability', base.get('loss_probability', 0.0))
+        loss = section.raw('loss_probability', base.get('loss_probability', 0.0))
         if isinstance(loss, bool) or not isinstance(loss, (int, float)) or not 0.0 <= float(loss) <= 1.0:
-            raise ConfigError(f"{section.at('loss_probability')}: must be a number in [0, 1] "
+            raise ConfigError(f"{section.path_of('loss_probability')}: must be a number in [0, 1] "
                               f"(got {describe_type(loss)} {loss!r})")
-        seed = section.get('seed', None)
+        seed = section.raw('seed', None)
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-            raise ConfigError(f"{section.at('seed')}: must be an integer >= 0 or null (got {describe_type(seed)} {seed!r})")
+            raise ConfigError(f"{section.path_of('seed')}: must be an integer >= 0 or null (got {describe_type(seed)} {seed!r})")
         return cls(delay, float(loss), seed)
 
     def to_dict(self) -> dict:

@@ -8,7 +8,7 @@ time ``now`` (seconds, any clock -- sim time in the node, a fake clock in tests)
 messages to put on the wire; nothing here sleeps, spawns timers or draws random numbers.
 
 Delivery (:class:`ReliableChannel`; TCP's fast retransmit and selective repeat, per peer)
-    * A message of a kind in :data:`~.channel_codec.ACKNOWLEDGED_KINDS` is sent as one copy per
+    * A message of a kind in :data:`~.codec.ACKNOWLEDGED_KINDS` is sent as one copy per
       recipient (a broadcast REQUEST goes to every teammate; each link may lose its copy) and
       each copy is kept until that recipient answers -- with an ACK, or for a COMMIT_REQUEST with
       COMMIT_ACCEPT / COMMIT_REJECT.
@@ -46,106 +46,21 @@ Delivery (:class:`ReliableChannel`; TCP's fast retransmit and selective repeat, 
       stamps the copies of a batch with the time the batch actually left, which is what the
       reordering rule compares.
 
-Commitments (:class:`CommitmentLedger`, :class:`Negotiation`; the paper sets coalitions up
-"using the same request-and-wait negotiation protocol as used in the distributed version of
-ASyMTRe"; our rendering of it):
-    * A robot holds at most one commitment: to the coalition it leads or to one coalition as a
-      helper. A COMMIT_REQUEST for another coalition is rejected (with the reason) until that
-      commitment is released or its hold time (``hold_seconds``, from the leader; 0 = until
-      released) has passed without renewal. A new COMMIT_REQUEST for the coalition already
-      held renews it.
-    * The leader commits itself, sends COMMIT_REQUEST to every helper and waits. All accept:
-      the coalition is *established*. One rejects or cannot be reached: the negotiation *failed*
-      and the leader sends RELEASE to every helper (a helper whose ACCEPT was lost holds the
-      commitment otherwise until it times out) and frees itself.
-    * The leader's view of a helper's commitment ends ``hold_seconds`` after the leader *first*
-      sent its request; the helper's starts when it first receives it, which is later -- so the
-      leader never believes in a commitment the helper has already dropped. A duplicate
-      COMMIT_REQUEST whose accepted commitment is no longer held is answered with a REJECT, and a
-      COMMIT_REQUEST that arrives after the RELEASE of its coalition (links reorder messages) is
-      rejected. Every negotiation therefore needs a new coalition id.
+Commitments: :mod:`.commitments`; retry policy and per-peer state: :mod:`.retry`.
 """
 from __future__ import annotations
 
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence
+from typing import Iterable, Sequence
 
-from .channel_codec import (
+from ..errors import ConfigError, RequestError
+from .codec import (
     COMMIT_ANSWERS, ChannelMessage, MessageKind, commit_request_message, release_message, reply_message,
 )
-from .errors import ConfigError, RequestError
-from .validation import Section
-
-NEVER = math.inf
-
-
-@dataclass(frozen=True)
-class RetryPolicy:
-    """When an unanswered message is re-sent and when the sender gives up (module docstring).
-
-    Defaults: ``reorder_window_s`` 50 ms, well above the paper's delay spread (3.85 +- 5.05 ms:
-    two batches overtake each other by ~25 ms at most); ``tail_timeout_s`` 1.5 s before the
-    first round trip is measured (above the ~1 s processing lag of a busy agent in the column
-    of 10, so that only a loss makes it expire), then the measured timeout, at least
-    ``min_timeout_s`` 0.2 s; doubling up to ``max_timeout_s`` 8 s; ``peer_timeout_s`` 10 s of
-    silence before a peer is given up; ``stall_s`` 0.5 s: a longer gap between two polls is time
-    this robot did not listen, not counted against peers; ``message_lifetime_s`` 30 s; ``duplicate_memory_s``
-    (default: the lifetime plus 1 s for the last retry in flight) must outlast every retry of
-    a message, or a late retry would be delivered again.
-    """
-
-    reorder_window_s: float = 0.05
-    tail_timeout_s: float = 1.5
-    min_timeout_s: float = 0.2
-    backoff: float = 2.0
-    max_timeout_s: float = 8.0
-    peer_timeout_s: float = 10.0
-    message_lifetime_s: float = 30.0
-    duplicate_memory_s: float | None = None
-    stall_s: float = 0.5
-
-    FIELDS = ('reorder_window_s', 'tail_timeout_s', 'min_timeout_s', 'backoff', 'max_timeout_s', 'peer_timeout_s',
-              'message_lifetime_s', 'duplicate_memory_s', 'stall_s')
-
-    def __post_init__(self) -> None:
-        checks = (('reorder_window_s', self.reorder_window_s, 'a number >= 0', lambda v: v >= 0),
-                  ('tail_timeout_s', self.tail_timeout_s, 'a number > 0', lambda v: v > 0),
-                  ('min_timeout_s', self.min_timeout_s, 'a number > 0', lambda v: v > 0),
-                  ('backoff', self.backoff, 'a number >= 1', lambda v: v >= 1),
-                  ('max_timeout_s', self.max_timeout_s,
-                   f'a number >= tail_timeout_s = {self.tail_timeout_s!r} and >= min_timeout_s = {self.min_timeout_s!r}',
-                   lambda v: v >= max(self.tail_timeout_s, self.min_timeout_s)),
-                  ('peer_timeout_s', self.peer_timeout_s, 'a number > 0', lambda v: v > 0),
-                  ('stall_s', self.stall_s, 'a number > 0', lambda v: v > 0),
-                  ('message_lifetime_s', self.message_lifetime_s,
-                   f'a number >= peer_timeout_s = {self.peer_timeout_s!r}', lambda v: v >= self.peer_timeout_s))
-        for name, value, allowed, ok in checks:
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not ok(value):
-                raise ConfigError(f'retry.{name}: must be {allowed} (got {value!r})')
-        memory = self.duplicate_memory_s
-        if memory is None:
-            object.__setattr__(self, 'duplicate_memory_s', self.message_lifetime_s + 1.0)
-        elif isinstance(memory, bool) or not isinstance(memory, (int, float)) or not memory >= self.message_lifetime_s:
-            raise ConfigError(f'retry.duplicate_memory_s: must be >= message_lifetime_s = '
-                              f'{self.message_lifetime_s:g} s, the longest a message is retried (got {memory!r})')
-
-    @classmethod
-    def from_dict(cls, data: Any, path: str = 'retry') -> 'RetryPolicy':
-        section = Section(data, path, cls.FIELDS)
-        values = {key: section.get(key) for key in section.allowed if key in section.data}
-        try:
-            return cls(**values)
-        except ConfigError as exc:
-            message = str(exc)
-            raise ConfigError(path + message[len('retry'):] if message.startswith('retry.') else message) from None
-
-    def tail_timeout(self, measured: float, expiries: int) -> float:
-        """The tail-loss timeout after ``expiries`` expiries without an answer, the measured
-        round-trip timeout being ``measured`` (0: no sample yet)."""
-        base = self.tail_timeout_s if measured <= 0 else max(self.min_timeout_s, measured)
-        return min(base * self.backoff ** expiries, self.max_timeout_s)
+from .commitments import CommitmentLedger, Negotiation
+from .retry import NEVER, PendingCopy, Peer, RetryPolicy, SeenMessage
 
 
 @dataclass(frozen=True)
@@ -192,171 +107,6 @@ class ChannelStats:
         return dict(self.__dict__)
 
 
-# --- commitments ------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Commitment:
-    """``robot`` is part of coalition ``coalition_id`` led by ``leader`` until ``expires_at``."""
-
-    coalition_id: str
-    leader: str
-    members: tuple[str, ...]
-    since: float
-    expires_at: float
-
-    def conflicts_with(self, coalition_id: str, leader: str) -> bool:
-        return (self.coalition_id, self.leader) != (coalition_id, leader)
-
-
-class CommitmentLedger:
-    """The one commitment a robot may hold; ``history`` records every change (time, event, id)."""
-
-    def __init__(self, robot: str):
-        self.robot = robot
-        self._current: Commitment | None = None
-        self.history: list[tuple[float, str, str]] = []
-
-    def active(self, now: float) -> Commitment | None:
-        """The commitment held at ``now`` (an expired one is dropped)."""
-        current = self._current
-        if current is not None and now >= current.expires_at:
-            self.history.append((now, 'expired', current.coalition_id))
-            self._current = None
-        return self._current
-
-    def hold(self, coalition_id: str, leader: str, members: Sequence[str], now: float,
-             hold_seconds: float = 0.0) -> tuple[bool, str]:
-        """Commit to ``coalition_id`` (or renew it): (True, '') or (False, why not)."""
-        current = self.active(now)
-        if current is not None and current.conflicts_with(coalition_id, leader):
-            return False, f'{self.robot} is committed to coalition {current.coalition_id} of {current.leader}'
-        expires_at = now + hold_seconds if hold_seconds > 0 else NEVER
-        self._current = Commitment(coalition_id, leader, tuple(members),
-                                   now if current is None else current.since, expires_at)
-        self.history.append((now, 'renewed' if current is not None else 'committed', coalition_id))
-        return True, ''
-
-    def holds(self, coalition_id: str, leader: str, now: float) -> bool:
-        current = self.active(now)
-        return current is not None and not current.conflicts_with(coalition_id, leader)
-
-    def release(self, coalition_id: str, leader: str, now: float) -> bool:
-        """Drop the commitment to ``coalition_id`` of ``leader``; False if it was not held."""
-        if not self.holds(coalition_id, leader, now):
-            return False
-        self._current = None
-        self.history.append((now, 'released', coalition_id))
-        return True
-
-
-@dataclass
-class Negotiation:
-    """A leader's request-and-wait negotiation of one coalition (see the module docstring)."""
-
-    coalition_id: str
-    leader: str
-    members: tuple[str, ...]
-    cost: float
-    hold_seconds: float
-    started: float
-    accepted: set[str] = field(default_factory=set)
-    rejected: dict[str, str] = field(default_factory=dict)
-    released: bool = False
-
-    @property
-    def helpers(self) -> tuple[str, ...]:
-        return tuple(robot for robot in self.members if robot != self.leader)
-
-    @property
-    def expires_at(self) -> float:
-        return self.started + self.hold_seconds if self.hold_seconds > 0 else NEVER
-
-    def state(self, now: float) -> str:
-        """'waiting', 'established', 'failed' (a helper rejected or was unreachable), 'expired'
-        (the hold time passed before all accepted, or since) or 'released'."""
-        if self.released:
-            return 'released'
-        if self.rejected:
-            return 'failed'
-        if now >= self.expires_at:
-            return 'expired'
-        return 'established' if self.accepted >= set(self.helpers) else 'waiting'
-
-
-# --- the channel --------------------------------------------------------------------------------
-
-@dataclass
-class _Pending:
-    message: ChannelMessage
-    first_sent: float
-    last_sent: float
-    #: when the first copy actually left (batches: :meth:`ReliableChannel.transmitted`); what an
-    #: answer to it proves about copies sent before
-    first_transmitted: float
-    sends: int = 1
-    #: when an answer proved this copy lost (fast retransmit after ``reorder_window_s`` more)
-    lost_at: float | None = None
-
-
-class RoundTripEstimate:
-    """Smoothed round-trip time to one robot and its variation (RFC 6298, alpha 1/8, beta 1/4)."""
-
-    def __init__(self) -> None:
-        self.smoothed: float | None = None
-        self.variation: float | None = None
-
-    def add(self, sample: float) -> None:
-        if self.smoothed is None:
-            self.smoothed, self.variation = sample, sample / 2.0
-        else:
-            self.variation = 0.75 * self.variation + 0.25 * abs(self.smoothed - sample)
-            self.smoothed = 0.875 * self.smoothed + 0.125 * sample
-
-    def timeout(self) -> float:
-        """SRTT + 4 RTTVAR (0 before the first sample)."""
-        return 0.0 if self.smoothed is None else self.smoothed + 4.0 * self.variation
-
-
-class _Peer:
-    """What a sender knows about one recipient: its unanswered copies (ordered by their last
-    transmission), when it last answered, since when it owes an answer, the round trip and the
-    tail-timeout back-off."""
-
-    def __init__(self) -> None:
-        self.pending: dict[int, _Pending] = {}
-        self.suspects: set[int] = set()
-        self.last_answer_at = -NEVER
-        self.owing_since: float | None = None
-        self.round_trip = RoundTripEstimate()
-        self.expiries = 0
-
-    def add(self, pending: _Pending, now: float) -> None:
-        if not self.pending:
-            self.owing_since = now
-        self.pending[pending.message.message_id] = pending
-
-    def remove(self, message_id: int) -> _Pending | None:
-        pending = self.pending.pop(message_id, None)
-        self.suspects.discard(message_id)
-        if not self.pending:
-            self.owing_since = None
-        return pending
-
-    def touch(self, pending: _Pending) -> None:
-        """Move ``pending`` behind the others (it was just transmitted)."""
-        self.pending[pending.message.message_id] = self.pending.pop(pending.message.message_id)
-
-    def silent_since(self) -> float:
-        """Since when the peer has owed an answer and given none."""
-        return max(self.last_answer_at, self.owing_since if self.owing_since is not None else NEVER)
-
-
-@dataclass
-class _Seen:
-    time: float
-    reply: ChannelMessage | None
-
-
 class ReliableChannel:
     """One robot's end of the agent channel: numbering, retries, duplicates and commitments.
 
@@ -375,8 +125,8 @@ class ReliableChannel:
         self.stats = ChannelStats()
         self.negotiations: dict[str, Negotiation] = {}
         self._ids = itertools.count(first_message_id)
-        self._peers: dict[str, _Peer] = {}
-        self._seen: dict[tuple[str, int], _Seen] = {}
+        self._peers: dict[str, Peer] = {}
+        self._seen: dict[tuple[str, int], SeenMessage] = {}
         self._answers_seen: set[tuple[str, int]] = set()
         #: (coalition id, leader) -> when its RELEASE arrived: a COMMIT_REQUEST delayed past its
         #: RELEASE must not commit this robot to a coalition its leader has given up
@@ -386,10 +136,10 @@ class ReliableChannel:
     def new_id(self) -> int:
         return next(self._ids)
 
-    def _peer(self, robot: str) -> _Peer:
+    def _peer(self, robot: str) -> Peer:
         peer = self._peers.get(robot)
         if peer is None:
-            peer = self._peers[robot] = _Peer()
+            peer = self._peers[robot] = Peer()
         return peer
 
     # --- sending ---------------------------------------------------------------------------
@@ -411,7 +161,7 @@ class ReliableChannel:
         copies = [message.addressed_to(robot) for robot in targets]
         for copy in copies:
             if copy.needs_ack:
-                self._peer(copy.receiver).add(_Pending(copy, now, now, now), now)
+                self._peer(copy.receiver).add(PendingCopy(copy, now, now, now), now)
         self.stats.sent += len(copies)
         return copies
 
@@ -461,7 +211,7 @@ class ReliableChannel:
             for pending in peer.pending.values():
                 pending.first_sent += gap
 
-    def _tail_deadline(self, peer: _Peer) -> float:
+    def _tail_deadline(self, peer: Peer) -> float:
         if not peer.pending:
             return NEVER
         oldest = next(iter(peer.pending.values())).last_sent
@@ -496,7 +246,7 @@ class ReliableChannel:
                     pending = peer.remove(message_id)
                     failed.append(Undelivered(pending.message, pending.sends))
                 continue
-            due: list[_Pending] = []
+            due: list[PendingCopy] = []
             for message_id in list(peer.suspects):
                 pending = peer.pending[message_id]
                 if now >= pending.lost_at + policy.reorder_window_s:
@@ -577,14 +327,14 @@ class ReliableChannel:
                 self._released[(message.coalition_id, message.sender)] = now
             if message.needs_ack:
                 reply = reply_message(MessageKind.ACK, self.new_id(), self.robot, message)
-        self._seen[message.key] = _Seen(now, reply)
+        self._seen[message.key] = SeenMessage(now, reply)
         if reply is not None:
             received.replies.append(reply)
             self.stats.replies += 1
         self.stats.delivered += 1
         return received
 
-    def _answer_duplicate(self, message: ChannelMessage, seen: _Seen, now: float) -> ChannelMessage | None:
+    def _answer_duplicate(self, message: ChannelMessage, seen: SeenMessage, now: float) -> ChannelMessage | None:
         reply = seen.reply
         if (reply is not None and reply.kind is MessageKind.COMMIT_ACCEPT
                 and not self.ledger.holds(message.coalition_id, message.sender, now)):
@@ -675,8 +425,4 @@ class ReliableChannel:
         return messages
 
 
-__all__ = [
-    'ChannelStats', 'Commitment', 'CommitmentLedger', 'Negotiation', 'Received', 'ReliableChannel', 'RetryPolicy',
-    'RoundTripEstimate',
-    'Undelivered',
-]
+__all__ = ['ChannelStats', 'Received', 'ReliableChannel', 'Undelivered']

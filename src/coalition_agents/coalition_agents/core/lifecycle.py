@@ -1,0 +1,467 @@
+"""One robot's coalition life cycle (paper Algorithm 2, Section V), as a pure state machine.
+
+:class:`~.agent.SchemaAgent` reasons (requests, offers, executable coalitions);
+:class:`AgentLifecycle` decides what the robot does with it, driven by events that carry the
+time (``on_tick``, ``reasoning_step``, ``on_message``, ``on_stream_timer``,
+``on_teammate_status``) and acting through two ports: :class:`LifecyclePort` (status, velocity
+commands, log, "done", "reason again") and :class:`CoalitionChannel` (negotiation, release,
+streaming). The schema_agent node implements both on ROS; unit tests use fakes.
+
+States (:class:`~.agent_state.AgentState`): a robot with a task goes IDLE -> SEARCHING ->
+NEGOTIATING -> COMMITTED (-> COMPLETED when it drives its task to the goal) or FAILED; a robot
+without one goes IDLE -> HELPING (first request) -> COMMITTED (a leader's commitment) -> IDLE
+(released).
+
+* Start: once every teammate's agent listens on the channel (or after ``team_wait``) a robot with
+  a task starts the search.
+* Settle rule: it negotiates its least-cost coalition once it has an executable coalition whose
+  cost has not improved for ``settle_time`` (no cheaper coalition came from the offers since), or
+  at ``search_time`` at the latest (``settle_time`` >= ``search_time``: always the whole search
+  time, the paper's rule). The moment the first executable coalition appears is reported
+  (``coalition_found``), so "found" and "formed" are both in the status.
+* Negotiation fallback: the candidates are the cheapest coalition per set of members, in
+  non-descending cost; if one helper refuses or cannot be reached, the next. None left: FAILED
+  (a driving leader searches again instead, robots free up when other tasks end).
+* Commitment: the leader keeps the sensors of its coalition active (and those of the answers it
+  gives itself, footnote 10). A helper accepts the first coalition that asks it (the channel's
+  commitment ledger: one at a time) and keeps the sensors it serves its leader with.
+* Execution (:class:`~.coalition_runner.CoalitionRunner`): helpers stream what they serve; a
+  driving leader runs its task's motor schema, a driving helper maintain_relative_position. When
+  the MS is done the leader stops, releases its helpers and reports COMPLETED (FAILED after
+  ``task_time_limit``).
+* Re-forming (``reform_timeout`` > 0; :class:`~.coalition_execution.CoalitionExecution`): when a
+  source of the chosen solution has had no current value for ``reform_timeout``, the leader stops,
+  releases the coalition and searches again without the helpers that stopped, at most
+  ``max_reforms`` times, then reports FAILED.
+* ``exit_when_done``: the port's ``finish`` once the coalition is set up or failed (a driving
+  leader: once its task is completed or failed and the robots in ``exit_after`` report theirs
+  too) / the helper released.
+"""
+from __future__ import annotations
+
+import math
+from typing import Protocol, Sequence
+
+from .agent import FeasibleCoalition, SchemaAgent
+from .agent_state import AgentState, StatusReport
+from .coalition_execution import CoalitionExecution, ExecutionCheck
+from .coalition_runner import CoalitionRunner
+from .errors import CoalitionError
+from .information_values import ValueUnavailable
+from .motor_schema import STOP, Velocity
+from .settings import AgentSettings
+from .transport.codec import ChannelMessage, MessageKind
+from .transport.commitments import Negotiation
+from .transport.reliable_channel import Received
+
+
+class LifecyclePort(Protocol):
+    """What the life cycle asks of its host (the node)."""
+
+    def publish_status(self, report: StatusReport) -> None: ...
+
+    def command(self, velocity: Velocity) -> None:
+        """A velocity for the robot (ignored when the agent does not drive)."""
+
+    def log(self, level: str, text: str) -> None:
+        """``level``: info, warning or error."""
+
+    def finish(self) -> None:
+        """``exit_when_done``: this agent is done."""
+
+    def request_reasoning(self) -> None:
+        """Schedule :meth:`AgentLifecycle.reasoning_step` (its inputs changed)."""
+
+    def teammates_listening(self) -> int:
+        """How many teammates' agents listen on the channel now."""
+
+
+class CoalitionChannel(Protocol):
+    """The part of the agent channel the life cycle uses."""
+
+    def new_id(self) -> int: ...
+
+    def propose(self, coalition_id: str, members: Sequence[str], cost: float,
+                hold_seconds: float) -> tuple[Negotiation | None, str]: ...
+
+    def release(self, coalition_id: str, reason: str = '') -> None: ...
+
+    def stream(self, receiver: str, coalition_id: str, instance, values) -> None: ...
+
+
+class AgentLifecycle:
+    """One robot's coalition life cycle (module docstring)."""
+
+    def __init__(self, agent: SchemaAgent, settings: AgentSettings, port: LifecyclePort, channel: CoalitionChannel):
+        self.agent, self.settings, self.port, self.channel = agent, settings, port, channel
+        self.robot = agent.robot
+        self.team = agent.team
+        self.runner = CoalitionRunner(agent, settings)
+        self.state = AgentState.IDLE
+        self.started_at: float | None = None      # the current search's start (every agent: the first tick)
+        self.first_clock: float | None = None
+        self.task_started_at: float | None = None
+        self.found_at: float | None = None
+        self.found_cost = 0.0
+        self.formed_at: float | None = None
+        self.finished_at: float | None = None
+        self.helping_since: float | None = None
+        self.goal_distance = math.nan
+        self.candidates: list[FeasibleCoalition] = []
+        self.negotiation: Negotiation | None = None
+        self.chosen: FeasibleCoalition | None = None
+        self.commitment: tuple[str, str, tuple[str, ...], float] | None = None  # id, leader, members, cost
+        self.execution: CoalitionExecution | None = None
+        self.ms_phase = ''
+        self.task_complete = False
+        self.reforms = 0
+        self.attempts = 0
+        self.others_done: set[str] = set()
+        self.own_done = False
+        self.finished = False
+        self._best_cost: float | None = None
+        self._best_since: float | None = None
+        self._last_unavailable = ''
+        #: the detail text without and with the motor schema's progress (human text only)
+        self._summary = ''
+        self._progress = ''
+
+    # --- status ---------------------------------------------------------------------------------
+    @property
+    def detail(self) -> str:
+        return f'{self._summary}; executing {self._progress}' if self._progress else self._summary
+
+    def _note(self, summary: str) -> None:
+        self._summary, self._progress = summary, ''
+
+    def report(self) -> StatusReport:
+        coalition_id, leader, members, cost = self.commitment if self.commitment is not None else ('', '', (), 0.0)
+        return StatusReport(
+            self.robot, self.state, self.settings.task_name, coalition_id, leader, tuple(members), float(cost),
+            search_started=self.started_at if self.agent.task is not None else None,
+            coalition_found=self.found_at, found_cost=self.found_cost if self.found_at is not None else 0.0,
+            coalition_formed=self.formed_at, task_finished=self.finished_at,
+            potential_solution=0 if self.chosen is None or self.formed_at is None
+            else self.chosen.potential_solution.rank + 1,
+            reforms=self.reforms, goal_distance=self.goal_distance, requests_sent=self.agent.requests_sent,
+            offers_received=self.agent.offers_received, detail=self.detail)
+
+    def publish(self) -> None:
+        self.port.publish_status(self.report())
+
+    # --- dynamic settings -----------------------------------------------------------------------
+    def set_max_speed(self, value: float) -> None:
+        self.runner.set_max_speed(value)
+
+    def set_goal_tolerance(self, value: float) -> None:
+        self.runner.set_goal_tolerance(value)
+
+    def set_tick_period(self, value: float) -> None:
+        self.runner.tick_period = value
+
+    # --- events -----------------------------------------------------------------------------------
+    def on_message(self, message: ChannelMessage, received: Received, now: float) -> None:
+        """A message the channel delivered; a malformed one is logged and dropped."""
+        try:
+            self._handle(message, received, now)
+        except (CoalitionError, ValueError) as exc:
+            self.port.log('warning', f'{self.robot}: dropped {message}: {exc}')
+
+    def _handle(self, message: ChannelMessage, received: Received, now: float) -> None:
+        kind = message.kind
+        if kind is MessageKind.REQUEST:
+            if self.helping_since is None:
+                self.helping_since = now
+                if self.state is AgentState.IDLE:
+                    self.state = AgentState.HELPING
+                    self.publish()
+            self.agent.on_request(message.request, message)
+            self.port.request_reasoning()
+        elif kind is MessageKind.OFFER:
+            self.agent.on_offer(message.offer)
+            self.port.request_reasoning()
+        elif kind is MessageKind.INFORMATION:
+            if (self.commitment is not None and message.coalition_id == self.commitment[0]
+                    and message.sender in self.commitment[2]):  # only the coalition's members
+                self.runner.stream.update(message.sender, message.instance, dict(message.values), message.message_id,
+                                          now)
+        elif kind is MessageKind.COMMIT_REQUEST and received.accepted:
+            self.commitment = (message.coalition_id, message.sender, message.members, message.cost)
+            self.runner.stream.forget()
+            self.runner.follow = None
+            self.state = AgentState.COMMITTED
+            self.formed_at = now
+            serving = self.agent.sensors_serving(message.sender)
+            if self.settings['drive']:  # the helper MS needs the leader in view and its own contact
+                serving += tuple(s for s in ('fiducial', 'bumper') if s in self.agent.sensing.sensors)
+            self.agent.keep_only(serving)
+            self.port.log('info', f'{self.robot}: committed to coalition {message.coalition_id} of '
+                                  f"{message.sender} ({', '.join(message.members)}, cost {message.cost:g})")
+            self.publish()
+        elif kind in (MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT):
+            if self.state is AgentState.NEGOTIATING:
+                self._lead(now)  # the negotiation may be decided: do not wait for the tick
+        elif kind is MessageKind.RELEASE and self.commitment and self.commitment[0] == message.coalition_id:
+            self.port.log('info', f'{self.robot}: released from coalition {message.coalition_id}')
+            self.commitment = None
+            self.state = AgentState.IDLE
+            self.agent.keep_only(())
+            self.runner.follow = None
+            self.port.command(STOP)
+            self.publish()
+            if self.settings['exit_when_done']:
+                self._finish()
+
+    def reasoning_step(self, now: float) -> bool:
+        """The agent's inputs changed: evaluate, one ``reasoning_slice`` per step; True while work is left."""
+        if self.started_at is None:
+            return False  # the periodic tick starts the search
+        more = self.agent.tick(now, budget_s=self.settings['reasoning_slice'])
+        if self.agent.task is not None and self.state in (AgentState.SEARCHING, AgentState.NEGOTIATING):
+            self._lead(now)
+        return more
+
+    def on_tick(self, now: float) -> None:
+        """The periodic tick: start the search, catch changed readings and deadlines, execute."""
+        if self.started_at is None and not self._start(now):
+            return
+        self.port.request_reasoning()  # readings and deadlines change with time
+        if self.agent.task is not None:
+            self._lead(now)
+            if self.state is AgentState.COMMITTED and self.execution is not None:
+                self._execute(now)
+        elif self.settings['drive'] and self.state is AgentState.COMMITTED:
+            command, note = self.runner.helper_step(self.commitment[1], now)  # type: ignore[index]
+            if note:
+                self.port.log('info', note)
+            if command is not None:
+                self.port.command(command)
+        elif (self.settings['exit_when_done'] and self.commitment is None and self.helping_since is not None
+              and now >= self.helping_since + 3 * self.settings['search_time'] and not self.finished):
+            self.agent.keep_only(())
+            self._finish()
+
+    def _start(self, now: float) -> bool:
+        """Start when every teammate listens on the channel (a request sent before would only be
+        retried), or after team_wait without them; False while waiting."""
+        if self.first_clock is None:
+            self.first_clock = now
+        listening = 1 + self.port.teammates_listening()
+        team_wait = self.settings['team_wait']
+        if listening < len(self.team) and now - self.first_clock < team_wait:
+            return False
+        if listening < len(self.team):
+            self.port.log('warning', f'{self.robot}: {listening} of {len(self.team)} agents on the channel '
+                                     f'after {team_wait:g} s; starting anyway')
+        self.started_at = now
+        self.task_started_at = now
+        if self.agent.task is not None:
+            self.state = AgentState.SEARCHING
+            self.agent.start()
+            self.publish()
+        return True
+
+    def on_stream_timer(self, now: float) -> None:
+        """Send the current value of every instance this robot serves its coalition (helpers; a
+        leader serves itself locally)."""
+        if self.commitment is None or self.started_at is None:
+            return
+        coalition_id, _, members, _ = self.commitment
+        for requester, answer, value in self.runner.served_values(members, now):
+            self.channel.stream(requester, coalition_id, answer, value)
+
+    def on_teammate_status(self, robot: str, state: AgentState) -> None:
+        if state.finished:
+            self.others_done.add(robot)
+            self._maybe_finish()
+
+    # --- the search and the negotiation -----------------------------------------------------------
+    def _settled(self, now: float) -> bool:
+        """Track the cheapest executable coalition; True once it is time to negotiate: it has
+        not improved for settle_time, or the search time is over."""
+        coalitions = self.agent.coalitions(now)
+        if coalitions:
+            cost = coalitions[0].cost
+            if self.found_at is None:
+                self.found_at, self.found_cost = now, cost
+                self._note(f'search started at {self.started_at:.3f} s; first executable coalition at '
+                           f'{now:.3f} s ({now - self.started_at:.3f} s, cost {cost:g})')
+                self.port.log('info', f'{self.robot}: {self.detail}')
+                self.publish()
+            if self._best_cost is None or cost < self._best_cost:
+                self._best_cost, self._best_since = cost, now
+        if now >= self.started_at + self.settings['search_time']:
+            return True
+        # Settled only while the coalition is executable now: readings that lapsed for a moment
+        # (a busy executor) must not end the search before search_time with nothing to propose.
+        return (bool(coalitions) and self._best_since is not None
+                and now - self._best_since >= self.settings['settle_time'])
+
+    def _lead(self, now: float) -> None:
+        if self.state is AgentState.SEARCHING and self._settled(now):
+            seen: set = set()
+            self.candidates = []
+            for coalition in self.agent.coalitions(now):
+                if frozenset(coalition.members) not in seen:
+                    seen.add(frozenset(coalition.members))
+                    self.candidates.append(coalition)
+            self.port.log('info', f'{self.robot}: {len(self.candidates)} executable coalition(s) after '
+                                  f'{now - self.started_at:.2f} s'
+                                  + ''.join(f'\n{c.describe()}' for c in self.candidates[:3]))
+            self._propose_next(now)
+        elif self.state is AgentState.NEGOTIATING and self.negotiation is not None:
+            state = self.negotiation.state(now)
+            if state == 'established':
+                self._established(now)
+            elif state in ('failed', 'expired'):
+                self.port.log('warning', f'{self.robot}: coalition {self.negotiation.coalition_id} {state}: '
+                                         f'{self.negotiation.rejected}')
+                self.channel.release(self.negotiation.coalition_id, 'negotiation failed')
+                self._propose_next(now)
+
+    def _search_again(self, now: float, exclude: Sequence[str] = ()) -> None:
+        self.started_at = now
+        self.state = AgentState.SEARCHING
+        self.found_at = self._best_cost = self._best_since = self.formed_at = None
+        self.agent.restart(exclude=exclude)
+        self.publish()
+
+    def _propose_next(self, now: float) -> None:
+        if (not self.candidates and self.settings['drive'] and self.attempts
+                and self.reforms < self.settings['max_reforms']):
+            # A driving leader whose candidates were all refused (their robots busy) searches again:
+            # robots free up when other tasks end.
+            self.reforms += 1
+            self.port.log('warning', f'{self.robot}: no coalition could be set up; searching again '
+                                     f"({self.reforms}/{self.settings['max_reforms']})")
+            self._search_again(now)
+            return
+        while self.candidates:
+            candidate = self.candidates.pop(0)
+            self.attempts += 1
+            coalition_id = f'{self.robot}/{self.channel.new_id()}'
+            negotiation, reason = self.channel.propose(coalition_id, candidate.members, candidate.cost,
+                                                       self.settings['hold_seconds'])
+            if negotiation is None:
+                self.port.log('warning', f'{self.robot}: cannot lead {coalition_id}: {reason}')
+                continue
+            self.negotiation, self.chosen, self.state = negotiation, candidate, AgentState.NEGOTIATING
+            self.publish()
+            if negotiation.state(now) == 'established':  # no helpers to wait for
+                self._established(now)
+            return
+        self._fail(f'no executable coalition could be set up after {now - self.started_at:.2f} s '
+                   f'({self.attempts} negotiation(s))')
+
+    def _fail(self, why: str) -> None:
+        self.state = AgentState.FAILED
+        self._note(why)
+        self.port.log('error', f'{self.robot}: {why}')
+        self.agent.keep_only(())
+        self.publish()
+        self.own_done = True
+        self._maybe_finish()
+
+    def _established(self, now: float) -> None:
+        chosen, negotiation = self.chosen, self.negotiation
+        self.formed_at = now
+        self.state = AgentState.COMMITTED
+        self.commitment = (negotiation.coalition_id, self.robot, chosen.members, chosen.cost)
+        # Its own sensors, and those of the answers it gives itself (footnote 10 self-requests).
+        self.agent.keep_only(chosen.sensors() + self.agent.sensors_serving(self.robot))
+        self.execution = CoalitionExecution(chosen.lcs, now, self.settings['reform_timeout'] or math.inf)
+        start = self.started_at
+        found = '' if self.found_at is None else \
+            f'first executable coalition at {self.found_at:.3f} s ({self.found_at - start:.3f} s); '
+        self._note(f'search started at {start:.3f} s; {found}formed at {now:.3f} s ({now - start:.3f} s); '
+                   f'potential solution {chosen.potential_solution.rank + 1}')
+        self.port.log('info', f'{self.robot}: coalition {negotiation.coalition_id} established: {chosen.describe()}')
+        self.publish()
+        if not self.settings['drive']:  # a driving leader is done when its task is
+            self.own_done = True
+            self._maybe_finish()
+
+    # --- execution ------------------------------------------------------------------------------
+    def _execute(self, now: float) -> None:
+        """The leader: re-form when the coalition's information stops flowing, else run the MS."""
+        runner = self.runner
+        check = self.execution.check(now, lambda p, i: runner.streamed(p, i, now) is not None,
+                                     lambda s, i: runner.reading(i, now) is not None)
+        if check.reform:
+            self._reform(now, check)
+            return
+        if not self.settings['drive']:
+            return
+        limit = self.settings['task_time_limit']
+        if limit > 0 and now - self.task_started_at > limit:
+            self._finish_task(now, AgentState.FAILED, f'time limit: {self._progress or self.detail}')
+            return
+        try:
+            step = runner.leader_step(self.chosen, now)
+            self.goal_distance = step.goal_distance
+            self._phase(step.phase, step.progress)
+            command = step.command
+        except ValueUnavailable as exc:
+            command = STOP
+            if str(exc) != self._last_unavailable:
+                self._last_unavailable = str(exc)
+                self.port.log('warning', f'{self.robot}: motor schema waits: {exc}')
+        self.port.command(command)
+        if self.task_complete:
+            self._finish_task(now, AgentState.COMPLETED, self._progress or self.detail)
+
+    def _phase(self, phase: str, progress: str) -> None:
+        if phase == self.ms_phase:
+            return
+        self.ms_phase = phase
+        self.task_complete = phase == 'done'
+        self.port.log('info', f'{self.robot}: motor schema {self.agent.task.motor_schema}: {phase} ({progress})')
+        self._progress = f'{phase}: {progress}'
+        self.publish()
+
+    def _finish_task(self, now: float, state: AgentState, why: str) -> None:
+        """The task is over (done, or out of time): stop, release the helpers, report."""
+        coalition_id = self.commitment[0]
+        self.port.command(STOP)
+        self.channel.release(coalition_id, f'task {state.label}')
+        self.execution = None
+        self.state = state
+        self.finished_at = now
+        self._note(f'{self._summary}; task {state.label} at {now:.3f} s ({why})')
+        self.port.log('info' if state is AgentState.COMPLETED else 'error',
+                      f'{self.robot}: task {self.settings.task_name} {state.label}: {why}; '
+                      f'coalition {coalition_id} released')
+        self.agent.keep_only(())
+        self.publish()
+        self.own_done = True
+        self._maybe_finish()
+
+    def _reform(self, now: float, check: ExecutionCheck) -> None:
+        coalition_id = self.commitment[0]
+        self.port.command(STOP)
+        self.port.log('warning', f'{self.robot}: coalition {coalition_id} infeasible for {check.infeasible_for:.2f} s '
+                                 f"({'; '.join(check.missing)}): releasing it")
+        self.channel.release(coalition_id, 'information stopped: ' + '; '.join(check.missing))
+        self.commitment, self.execution, self.chosen, self.negotiation = None, None, None, None
+        self.runner.stream.forget()
+        self.ms_phase = ''
+        if self.reforms >= self.settings['max_reforms']:
+            self._fail(f'coalition {coalition_id} lost ({"; ".join(check.missing)}); {self.reforms} re-form(s) used')
+            return
+        self.reforms += 1
+        self.port.log('info', f"{self.robot}: re-forming ({self.reforms}/{self.settings['max_reforms']})"
+                              + (f" without {', '.join(check.lost_helpers)}" if check.lost_helpers else ''))
+        self._search_again(now, exclude=check.lost_helpers)
+
+    # --- done -------------------------------------------------------------------------------------
+    def _maybe_finish(self) -> None:
+        if self.settings['exit_when_done'] and self.own_done and self.others_done >= set(self.settings['exit_after']):
+            self._finish()
+
+    def _finish(self) -> None:
+        if not self.finished:
+            self.finished = True
+            self.port.finish()
+
+
+__all__ = ['AgentLifecycle', 'CoalitionChannel', 'LifecyclePort']
