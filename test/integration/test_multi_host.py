@@ -61,7 +61,7 @@ SGCM_SPLIT = '''
 import sys
 from pathlib import Path
 from sgcm.core.task_config import load_cases, load_task
-from sgcm.sim_runner import run_case
+from sgcm.experiments.sim_runner import run_case
 config, experiment, run_dir = map(Path, sys.argv[1:4])
 task_file = config / 'sgcm' / 'task.yaml'
 task = load_task(task_file)
@@ -91,7 +91,7 @@ def test_sgcm_case_with_the_follower_on_another_host(tmp_path):
     from collab_tools.core.bag_analysis import read_messages
     from sgcm.core.rearrangement import RearrangementModel
     from sgcm.core.task_config import load_task
-    from sgcm.sim_runner import episode_from_bag
+    from sgcm.experiments.sim_runner import episode_from_bag
     bag = tmp_path / 'run' / 'bags' / 'sgcm'
     reports = [m for _, _, m in read_messages(bag, ['/sgcm/follower_report'])]
     assert reports, 'no follower report crossed the link'

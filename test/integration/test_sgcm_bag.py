@@ -2,7 +2,7 @@
 metadata is as rosbag2 Jazzy writes it (issue 11: bags as rosbag2 writes them).
 
 Runs config/experiments/sgcm_case.yaml the way `scripts/experiment sgcm-table1 --mode sim`
-does (sgcm.sim_runner.run_case) on the shortest case, case_8 (one cube per colour).
+does (sgcm.experiments.sim_runner.run_case) on the shortest case, case_8 (one cube per colour).
 """
 import yaml
 
@@ -10,7 +10,7 @@ from collab_tools.core.bag_analysis import read_messages, summarize_bag
 from collab_tools.core.bag_check import check_bag, read_mcap_summary
 from sgcm.core.rearrangement import RearrangementModel
 from sgcm.core.task_config import load_cases, load_task
-from sgcm.sim_runner import episode_from_bag, run_case
+from sgcm.experiments.sim_runner import episode_from_bag, run_case
 
 ARMS = ('leader_arm', 'follower_arm')
 

@@ -2,32 +2,20 @@
 
 The frames, their geometry and the label legend come from the shared
 :class:`collab_tools.top_camera.TopCamera` (with the label image); this adds which labels
-are cubes and the state estimate of :mod:`sgcm.core.perception`.
+are cubes and the state estimate of :mod:`sgcm.core.perception`. The nodes' ``camera`` and
+``image_transport`` parameters are in :mod:`sgcm.core.settings`.
 """
 from __future__ import annotations
 
 from rclpy.node import Node
 from rclpy.time import Time
 
-from collab_tools.parameters import NodeParameters
-from collab_tools.top_camera import TRANSPORTS, TopCamera
+from collab_tools.top_camera import TopCamera
 
 from .core.perception import StateEstimate, estimate_state
 from .core.task_config import TaskConfig
 
 CUBE_KIND = 'cube'
-
-
-def check_camera(value: str) -> str | None:
-    """Parameter check for a camera namespace (names.RobotNode.team makes it absolute)."""
-    return None if value.strip('/') else "must name the camera's namespace (got '')"
-
-
-def declare_image_transport(params: NodeParameters) -> str:
-    """The read-only ``image_transport`` parameter of both SGCM nodes (the subscriptions are made once)."""
-    return params.declare('image_transport', 'raw', "the camera's image_transport: raw (image_raw, labels) "
-                          'or compressed (image_raw/compressed JPEG, labels/compressed PNG: for a node on '
-                          'another host)', choices=TRANSPORTS)
 
 
 class CameraInput:

@@ -1,17 +1,20 @@
 """leader_planner: the SGCM leader arm (Algorithm 1 on the simulated table).
 
 Runs in its arm's namespace (``ros2 run sgcm leader_planner --ros-args -r __ns:=/leader_arm``).
-Each round: estimate the state from the top-view camera (labels + RGB; no ground
-truth), solve the feedback Stackelberg equilibrium over the horizon (or act greedily,
-for the baseline), execute her own move through the arm's ``pick_and_place`` action, publish
-the Guidance on ``<team>/sgcm/guidance`` (her move and its outcome, the recommended follower
-move, predicted values), then wait until the follower reports the round over on
-``<team>/sgcm/follower_report``, let the table settle and observe again. The task ends at
-the goal, when a round passes with both arms idle (stuck), or at the round limit; the node
-then exits (exit_when_done) so an orchestration script can wait for it.
+Each round: estimate the state from the top-view camera (labels + RGB; no ground truth), then
+the leader's round of the core (sgcm.core.leader_round: goal, stuck, round limit, else the
+feedback Stackelberg equilibrium over the horizon, or the greedy baseline), execute her own
+move through the arm's ``pick_and_place`` action, publish the Guidance on
+``<team>/sgcm/guidance`` (her move and its outcome, the recommended follower move, predicted
+values), then wait until the follower reports the round over on ``<team>/sgcm/follower_report``,
+let the table settle and observe again. The round logic is sgcm.core.leader_rounds; this node
+only turns frames, action results, reports and timers into its events. When the task ends (at
+the goal, stuck by sgcm.core.stuck_rule, or at the round limit) the node exits (exit_when_done)
+so an orchestration script can wait for it.
 
-Dynamic parameters (applied from the next decision that uses them): horizon, round_limit,
-follower_timeout (also to the wait in progress), settle_time (also to the settling in progress).
+Parameters: sgcm.core.settings.LEADER_SETTINGS. Dynamic ones (applied from the next decision
+that uses them): horizon, round_limit, follower_timeout (also to the wait in progress),
+settle_time (also to the settling in progress).
 """
 
 import sys
@@ -23,83 +26,59 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from collab_tools.names import RobotNode
-from collab_tools.node_support import ConfigurationError, run
+from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .camera_input import CameraInput, check_camera, declare_image_transport
-from .core.follower_behaviour import greedy_action
+from .camera_input import CameraInput
 from .core.fse import FSEPlanner
+from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
+from .core.leader_rounds import LeaderPhase, LeaderRounds
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
-from .core.stage_game import SOLVERS
-from .core.task_config import TaskConfigError, load_task
+from .core.settings import LEADER_SETTINGS, LeaderSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
-
-STRATEGIES = ('sgcm', 'greedy')
-#: The task file's own range for game.horizon (core.task_config).
-MAX_HORIZON = 6
 
 
 class LeaderPlanner(Node):
-    def __init__(self):
-        super().__init__('leader_planner')
+    def __init__(self, node_name: str = 'leader_planner', **node_options):
+        super().__init__(node_name, **node_options)
         params = self.params = NodeParameters(self)
         self.names = RobotNode(self, params)
-        task_file = params.declare('task_file', '', 'task YAML (config/sgcm/task.yaml)', required=True)
-        horizon = params.declare('horizon', 0, 'T, the prediction horizon; 0 = the task file game.horizon '
-                                 '(applied from the next round)', low=0, high=MAX_HORIZON,
-                                 on_change=self._set_horizon)
-        solver = params.declare('solver', 'fast', 'stage-game solver', choices=tuple(SOLVERS))
-        self.strategy = params.declare('strategy', 'sgcm', 'sgcm (guidance) | greedy (baseline: no guidance)',
-                                       choices=STRATEGIES)
-        camera = params.declare('camera', 'top_camera', 'camera namespace, under the team namespace',
-                                check=check_camera)
-        transport = declare_image_transport(params)
-        follower_timeout = params.declare(
-            'follower_timeout', 60.0, 'sim seconds to wait for the follower to end a round '
-            '(applied to the wait in progress)', low=0.0, on_change=self._set_follower_timeout)
-        settle_time = params.declare('settle_time', 0.5, 'sim seconds to let the table settle before observing '
-                                     '(applied to the settling in progress)', low=0.0,
-                                     on_change=self._set_settle_time)
-        round_limit = params.declare('round_limit', 0, 'rounds before giving up; 0 = the task file '
-                                     'game.round_limit (applied at the next observation)', low=0,
-                                     on_change=self._set_round_limit)
-        seed = params.declare('seed', 0, 'seed for sampling a mixed leader policy', low=0)
-        self.exit_when_done = params.declare('exit_when_done', True, 'exit the node when the task has ended')
-        try:
-            self.task = load_task(task_file)
-        except TaskConfigError as error:
-            raise ConfigurationError(f'parameter task_file: {error}') from None
+        values = params.declare_schema(LEADER_SETTINGS, on_change={
+            'horizon': self._set_horizon, 'follower_timeout': self._set_follower_timeout,
+            'settle_time': self._set_settle_time, 'round_limit': self._set_round_limit})
+        settings = self.settings = LeaderSettings.from_values(values)
+        self.task = settings.task
+        self.strategy = settings.strategy
+        self.exit_when_done = settings.exit_when_done
         self.model = RearrangementModel(self.task)
-        self.solver = solver
-        self._set_horizon(horizon)
-        self._set_follower_timeout(follower_timeout)
-        self._set_settle_time(settle_time)
-        self._set_round_limit(round_limit)
-        self.rng = np.random.default_rng(seed)
+        self.leader = LeaderRound(self.model, settings.strategy, rng=np.random.default_rng(settings.seed),
+                                  round_limit=settings.round_limit, moves_can_fail=settings.moves_can_fail)
+        self._set_horizon(settings.horizon)
+        self._set_follower_timeout(settings.follower_timeout)
+        self._set_settle_time(settings.settle_time)
+        self.rounds = LeaderRounds(self.leader, self)
 
-        self.camera = CameraInput(self, self.task, self.names.team(camera), transport)
+        self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
         self.create_subscription(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
         self.finished = Future()
         self.outcome = ''
-
-        self.round = 0
-        self.phase = 'observe'
         self.round_ended = None          # sim time the last round ended; frames count after + settle
         self.guidance_time = None        # sim time of the round's guidance; the follower has until + timeout
-        self.pending = None              # the round being executed
+        self.estimate = None             # the camera estimate the round in progress was decided on
         self.timer = self.create_timer(0.05, self._tick)
         self.get_logger().info(
-            f'arm {self.names.robot}, strategy {self.strategy}, horizon T={self.planner.horizon}, '
-            f'solver {solver}, {self.task.rows}x{self.task.cols} grid, colours {", ".join(self.task.colours)}')
+            f'arm {self.names.robot}, strategy {self.strategy}, horizon T={self.leader.planner.horizon}, '
+            f'solver {settings.solver}, {self.task.rows}x{self.task.cols} grid, '
+            f'colours {", ".join(self.task.colours)}')
 
     # --- dynamic parameters ----------------------------------------------------------
     def _set_horizon(self, value: int) -> None:
         # The next round plans with it; the planner holds no state between rounds.
-        self.planner = FSEPlanner(self.model, horizon=value or self.task.horizon, solver=self.solver)
+        self.leader.planner = FSEPlanner(self.model, horizon=value or self.task.horizon, solver=self.settings.solver)
 
     def _set_follower_timeout(self, value: float) -> None:
         self.follower_timeout = Duration(seconds=float(value))
@@ -108,17 +87,19 @@ class LeaderPlanner(Node):
         self.settle = Duration(seconds=float(value))
 
     def _set_round_limit(self, value: int) -> None:
-        self.round_limit = value or self.task.round_limit
+        self.leader.round_limit = value or None
 
-    # --- round state machine ---------------------------------------------------------
+    # --- events for the core's rounds ------------------------------------------------
     def _tick(self) -> None:
-        if self.phase == 'observe':
+        phase = self.rounds.phase
+        if phase is LeaderPhase.OBSERVING:
             self._observe()
-        elif self.phase == 'wait_follower' and \
+        elif phase is LeaderPhase.AWAITING_FOLLOWER and \
                 self.get_clock().now() > self.guidance_time + self.follower_timeout:
-            self.get_logger().warn(f'round {self.round}: no follower report within '
+            self.get_logger().warn(f'round {self.rounds.turn.round}: no follower report within '
                                    f'{self.follower_timeout.nanoseconds / 1e9:.0f} s; observing anyway')
-            self._end_round(follower_idle=False)
+            self.rounds.follower_timed_out()
+            self.round_ended = self.get_clock().now()
 
     def _observe(self) -> None:
         stamp = self.camera.frame_time()
@@ -134,67 +115,48 @@ class LeaderPlanner(Node):
         if estimate.off_grid:
             self.get_logger().warn('objects outside the grid are not counted: '
                                    + ', '.join(o.name for o in estimate.off_grid))
-        state = self.model.state_of(estimate.counts)
-        goal = self.model.goal_state(state)
-        if np.array_equal(state, goal):
-            self._finish(state, 'goal reached', complete=True)
-            return
-        if self.round >= self.round_limit:
-            self._finish(state, f'round limit {self.round_limit} reached', complete=False)
-            return
-        self.round += 1
-        plan = None
-        if self.strategy == 'sgcm':
-            plan = self.planner.plan(state)
-            action = plan.leader_action
-            if len(plan.leader_actions) > 1:
-                action = int(self.rng.choice(plan.leader_actions, p=plan.leader_policy))
-            recommended = plan.follower_action
-        else:
-            action, recommended = greedy_action(self.model, state, LEADER), EMPTY
-        self.pending = {'state': state, 'estimate': estimate, 'action': action, 'plan': plan,
-                        'recommended': recommended}
-        self.get_logger().info(
-            f'round {self.round}: state\n{self.model.format_state(state)}\nleader: '
-            f'{self.model.describe(LEADER, action)}; recommend follower: '
-            f'{self.model.describe(FOLLOWER, recommended)}'
-            + (f' (v^A={plan.leader_value:.2f}, {plan.stage_games} stage games, '
-               f'{plan.seconds * 1e3:.0f} ms)' if plan else ''))
-        if action == EMPTY:
-            self._publish_guidance(succeeded=True)
-            return
+        self.estimate = estimate
+        self.rounds.table_seen(self.model.state_of(estimate.counts))
+
+    def _on_report(self, msg: FollowerReport) -> None:
+        # A late or duplicate report (for a round that is over) is ignored by the core.
+        if self.rounds.follower_reported(msg.round, not msg.move.empty, bool(msg.succeeded), msg.behaviour):
+            self.round_ended = self.get_clock().now()
+
+    # --- the core's effects ----------------------------------------------------------
+    def execute(self, turn: LeaderTurn) -> None:
+        self._log_turn(turn)
         try:
-            goal_msg = pick_and_place_goal(self.model, LEADER, action, estimate)
+            goal_msg = pick_and_place_goal(self.model, LEADER, turn.action, self.estimate)
         except ValueError as error:  # cannot happen for an estimate-feasible move; be explicit anyway
-            self.get_logger().error(f'round {self.round}: {error}')
-            self._publish_guidance(succeeded=False)
+            self.get_logger().error(f'round {turn.round}: {error}')
+            self.rounds.move_done(False)
             return
-        self.phase = 'executing'
-        future = self.arm.send_goal_async(goal_msg)
-        future.add_done_callback(self._on_goal_response)
+        self.arm.send_goal_async(goal_msg).add_done_callback(self._on_goal_response)
 
     def _on_goal_response(self, future) -> None:
         handle = future.result()
         if not handle.accepted:
-            self.get_logger().error(f'round {self.round}: the arm rejected the move')
-            self._publish_guidance(succeeded=False)
+            self.get_logger().error(f'round {self.rounds.turn.round}: the arm rejected the move')
+            self.rounds.move_done(False)
             return
         handle.get_result_async().add_done_callback(self._on_result)
 
     def _on_result(self, future) -> None:
         result = future.result().result
         if not result.success:
-            self.get_logger().info(f'round {self.round}: leader move not done: {result.message}')
-        self._publish_guidance(succeeded=bool(result.success))
+            self.get_logger().info(f'round {self.rounds.turn.round}: leader move not done: {result.message}')
+        self.rounds.move_done(bool(result.success))
 
-    def _publish_guidance(self, succeeded: bool) -> None:
-        pending = self.pending
-        plan = pending['plan']
-        msg = Guidance(round=self.round, horizon=self.planner.horizon, strategy=self.strategy,
-                       state=grid_state_msg(self.task, pending['state']),
-                       leader_move=move_msg(self.model, LEADER, pending['action']),
-                       leader_move_succeeded=succeeded,
-                       recommended_follower_move=move_msg(self.model, FOLLOWER, pending['recommended']))
+    def announce(self, turn: LeaderTurn, succeeded: bool) -> None:
+        if turn.action == EMPTY:
+            self._log_turn(turn)
+        plan = turn.plan
+        recommended = EMPTY if turn.recommended is None else turn.recommended
+        msg = Guidance(round=turn.round, horizon=self.leader.planner.horizon, strategy=self.strategy,
+                       state=grid_state_msg(self.task, turn.state),
+                       leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
+                       recommended_follower_move=move_msg(self.model, FOLLOWER, recommended))
         msg.header.stamp = self.get_clock().now().to_msg()
         if plan is not None:
             msg.leader_policy_moves = [move_msg(self.model, LEADER, int(a)) for a in plan.leader_actions]
@@ -204,37 +166,30 @@ class LeaderPlanner(Node):
             msg.stage_games = plan.stage_games
             msg.planning_seconds = plan.seconds
         self.guidance_pub.publish(msg)
-        self.phase = 'wait_follower'
         self.guidance_time = self.get_clock().now()
 
-    def _on_report(self, msg: FollowerReport) -> None:
-        if self.phase != 'wait_follower' or msg.round != self.round:
-            return  # a late or duplicate report: the round it belongs to is over
-        self._end_round(follower_idle=msg.move.empty)
-
-    def _end_round(self, follower_idle: bool) -> None:
-        leader_idle = self.pending['action'] == EMPTY
-        self.round_ended = self.get_clock().now()
-        if leader_idle and follower_idle:
-            # Both arms idle away from the goal: the same state comes back, and with it the
-            # same decisions (the greedy pair's chattering/stuck case).
-            self._finish(self.pending['state'], f'stuck: both arms idle in round {self.round}', complete=False)
-            return
-        self.phase = 'observe'
-
-    def _finish(self, state: np.ndarray, why: str, complete: bool) -> None:
-        msg = Guidance(round=self.round, horizon=self.planner.horizon, strategy=self.strategy,
-                       state=grid_state_msg(self.task, state), leader_move=move_msg(self.model, LEADER, EMPTY),
+    def finish(self, end: TaskEnd) -> None:
+        msg = Guidance(round=end.rounds, horizon=self.leader.planner.horizon, strategy=self.strategy,
+                       state=grid_state_msg(self.task, end.state), leader_move=move_msg(self.model, LEADER, EMPTY),
                        leader_move_succeeded=True,
                        recommended_follower_move=move_msg(self.model, FOLLOWER, EMPTY),
-                       task_complete=complete, status=why)
+                       task_complete=end.complete, status=end.reason)
         msg.header.stamp = self.get_clock().now().to_msg()
         self.guidance_pub.publish(msg)
-        self.phase = 'done'
-        self.outcome = why
-        self.get_logger().info(f'task ended after {self.round} rounds: {why}')
+        self.outcome = end.reason
+        self.get_logger().info(f'task ended after {end.rounds} rounds: {end.reason}')
         if not self.finished.done():
-            self.finished.set_result(complete)
+            self.finished.set_result(end.complete)
+
+    def _log_turn(self, turn: LeaderTurn) -> None:
+        plan = turn.plan
+        recommended = EMPTY if turn.recommended is None else turn.recommended
+        self.get_logger().info(
+            f'round {turn.round}: state\n{self.model.format_state(turn.state)}\nleader: '
+            f'{self.model.describe(LEADER, turn.action)}; recommend follower: '
+            f'{self.model.describe(FOLLOWER, recommended)}'
+            + (f' (v^A={plan.leader_value:.2f}, {plan.stage_games} stage games, '
+               f'{plan.seconds * 1e3:.0f} ms)' if plan else ''))
 
 
 def main(args=None) -> int:

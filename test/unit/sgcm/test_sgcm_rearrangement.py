@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sgcm.core.episode import _Executor
+from sgcm.core.episode import MoveExecutor
 from sgcm.core.rearrangement import EMPTY, FOLLOWER, LEADER, Move, RearrangementModel
 from sgcm.core.task_config import ClutterRule
 
@@ -219,7 +219,7 @@ def test_simulated_failures_happen_at_the_configured_rate(small_task, state_of):
     task = small_task(robots={'leader': {'failure_probability': 0.1}, 'follower': {'failure_probability': 0.3}})
     model = RearrangementModel(task)
     state = state_of(model, {'red': [[0, 1]]})
-    executor = _Executor(model, True, np.random.default_rng(4))
+    executor = MoveExecutor(model, True, np.random.default_rng(4))
     for robot, p_fail in ((LEADER, 0.1), (FOLLOWER, 0.3)):
         action = model.actions[robot].index_of(Move(1, 2, 0))
         results = [executor.attempt(state, robot, action) for _ in range(4000)]
@@ -230,7 +230,7 @@ def test_simulated_failures_happen_at_the_configured_rate(small_task, state_of):
             np.testing.assert_array_equal(after, state if not ok else model.apply(state, robot, action))
             assert cost == 1.0
     leader_move = model.actions[LEADER].index_of(Move(1, 2, 0))
-    no_failures = _Executor(model, False, np.random.default_rng(4))
+    no_failures = MoveExecutor(model, False, np.random.default_rng(4))
     assert all(no_failures.attempt(state, LEADER, leader_move)[1] for _ in range(200))
 
 
@@ -291,7 +291,7 @@ def test_blocked_follower_moves_have_no_effect_and_no_cost(line_model, state_of)
     assert nothing not in stage.follower_actions
     np.testing.assert_array_equal(model.step(state, EMPTY, nothing), state)
     # Executing such moves: nothing happens, nothing is charged.
-    executor = _Executor(model, False, np.random.default_rng(0))
+    executor = MoveExecutor(model, False, np.random.default_rng(0))
     for action in (into_full, nothing):
         after, ok, cost = executor.attempt(state, FOLLOWER, action)
         np.testing.assert_array_equal(after, state)

@@ -70,9 +70,9 @@ def test_report_no_bag_exits_2(tmp_path, capsys):
 
 
 def test_plot_plugins_come_from_the_ament_index():
-    # sgcm lists sgcm.report_plots under the collab_report_plots resource.
+    # sgcm lists sgcm.experiments.report_plots under the collab_report_plots resource.
     from collab_tools.core.report_plots import registered_plots
     from collab_tools.report_cli import load_plot_plugins
 
-    assert 'sgcm.report_plots' in load_plot_plugins()
+    assert 'sgcm.experiments.report_plots' in load_plot_plugins()
     assert registered_plots()['sgcm_rounds'] == {'sgcm_interfaces/msg/Guidance'}

@@ -12,19 +12,24 @@ the sum over SGCM's number of rounds; a greedy episode is summed over the same n
 of rounds (:func:`utility_over`), padded with idle rounds at its final state if greedy
 ended sooner, and regardless of whether it completed.
 
-A greedy episode is *stuck* when, without failures, a round leaves the state unchanged
-or returns to an earlier state: the deterministic greedy rules then repeat forever
-(the paper's chattering). SGCM episodes use the same detection when failures are off.
+Each round is one :class:`~.leader_round.LeaderRound` (observe, goal / stuck / round limit,
+plan), the same the leader_planner node runs, so an episode ends here as it ends in simulation.
+An episode is *stuck* by :mod:`.stuck_rule`: the state comes back after rounds in which nothing
+was left to chance (without failures: the greedy pair's chattering, the paper's stuck case;
+with or without: a round in which neither arm moved).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from .follower_behaviour import Follower, FollowerChoice, FollowerSettings, greedy_action
 from .fse import FSEPlanner
+from .leader_round import Ending, LeaderRound, LeaderTurn, TaskEnd
 from .rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
+from .stuck_rule import MoveOutcome
 
 
 @dataclass
@@ -79,8 +84,8 @@ class EpisodeResult:
                 'records': [asdict(r) for r in self.records]}
 
 
-class _Executor:
-    """Applies moves with sampled failures and charges costs."""
+class MoveExecutor:
+    """Applies moves in the abstract game with sampled failures and charges costs."""
 
     def __init__(self, model: RearrangementModel, simulate_failures: bool, rng: np.random.Generator):
         self.model = model
@@ -103,38 +108,27 @@ class _Executor:
         return (model.apply(state, robot, action) if succeeded else state), succeeded, cost
 
 
-def _stuck(history: list[bytes], state: np.ndarray, simulate_failures: bool) -> bool:
-    return not simulate_failures and state.tobytes() in history
+FollowerTurn = Callable[[int, np.ndarray, np.ndarray, LeaderTurn], FollowerChoice]
 
 
-@dataclass(frozen=True)
-class _LeaderTurn:
-    action: int
-    recommended: int | None = None       # None: no guidance (greedy baseline)
-    leader_value: float | None = None
-    follower_value: float | None = None
-    planning_seconds: float = 0.0
-
-
-def _play(model: RearrangementModel, method: str, initial: np.ndarray, leader_turn, follower_turn,
-          simulate_failures: bool, seed: int, round_limit: int | None, progress=None) -> EpisodeResult:
-    """The round loop shared by SGCM and the baseline: leader, then follower, then observe."""
-    rng = np.random.default_rng(seed)
-    executor = _Executor(model, simulate_failures, rng)
+def _play(leader: LeaderRound, method: str, initial: np.ndarray, follower_turn: FollowerTurn,
+          executor: MoveExecutor, progress=None) -> EpisodeResult:
+    """The round loop shared by SGCM and the baseline: the leader's round (observe, end or plan),
+    her move, the follower's, repeated until the leader ends the task."""
+    model = leader.model
     state = model.state_of(initial)
-    goal = model.goal_state(state)
-    limit = model.task.round_limit if round_limit is None else round_limit
-    result = EpisodeResult(method, completed=np.array_equal(state, goal), stuck=False, rounds=0)
-    history = [state.tobytes()]
-    while not result.completed and result.rounds < limit:
-        number = result.rounds + 1
-        turn = leader_turn(number, state, rng)
+    result = EpisodeResult(method, completed=False, stuck=False, rounds=0)
+    while True:
+        turn = leader.observe(state)
+        if isinstance(turn, TaskEnd):
+            break
         after_leader, leader_ok, leader_cost = executor.attempt(state, LEADER, turn.action)
-        choice = follower_turn(number, after_leader, state, turn)
+        choice = follower_turn(turn.round, after_leader, state, turn)
         after, follower_ok, follower_cost = executor.attempt(after_leader, FOLLOWER, choice.action)
+        leader.round_over(leader_ok, MoveOutcome(choice.action != EMPTY, follower_ok), choice.by_chance)
         reward = float(model.reward(after))
         result.records.append(RoundRecord(
-            round=number, state=state.tolist(), reward=reward,
+            round=turn.round, state=state.tolist(), reward=reward,
             leader_action=model.describe(LEADER, turn.action), leader_succeeded=leader_ok,
             recommended_action='' if turn.recommended is None else model.describe(FOLLOWER, turn.recommended),
             follower_action=model.describe(FOLLOWER, choice.action), follower_succeeded=follower_ok,
@@ -142,15 +136,12 @@ def _play(model: RearrangementModel, method: str, initial: np.ndarray, leader_tu
             stage_utility=reward - leader_cost - follower_cost,
             predicted_leader_value=turn.leader_value, predicted_follower_value=turn.follower_value,
             planning_seconds=turn.planning_seconds, next_state=after.tolist()))
-        result.rounds = number
+        result.rounds = turn.round
         state = after
-        result.completed = bool(np.array_equal(state, goal))
         if progress:
-            progress(number, result.records[-1])
-        if not result.completed and _stuck(history, state, simulate_failures):
-            result.stuck = True
-            break
-        history.append(state.tobytes())
+            progress(turn.round, result.records[-1])
+    result.completed = turn.complete
+    result.stuck = turn.ending is Ending.STUCK
     result.final_state = state.tolist()
     return result
 
@@ -159,28 +150,23 @@ def run_sgcm(model: RearrangementModel, initial: np.ndarray, follower: FollowerS
              planner: FSEPlanner | None = None, simulate_failures: bool = False, seed: int = 0,
              round_limit: int | None = None, progress=None) -> EpisodeResult:
     """Algorithm 1: plan the FSE at the observed state, leader moves, follower responds, repeat."""
-    planner = planner or FSEPlanner(model)
+    rng = np.random.default_rng(seed)  # one stream: mixed commitments and move failures, in round order
+    leader = LeaderRound(model, 'sgcm', planner or FSEPlanner(model), rng, round_limit,
+                         moves_can_fail=simulate_failures)
     follower_model = Follower(model, follower or FollowerSettings(), seed=seed + 1)
-
-    def leader_turn(number, state, rng):
-        plan = planner.plan(state)
-        action = plan.leader_action
-        if len(plan.leader_actions) > 1:  # a mixed commitment: the leader samples it
-            action = int(rng.choice(plan.leader_actions, p=plan.leader_policy))
-        return _LeaderTurn(action, plan.follower_action, plan.leader_value, plan.follower_value, plan.seconds)
 
     def follower_turn(number, seen, round_state, turn):
         return follower_model.choose(number, seen, round_state, turn.action, turn.recommended)
 
-    return _play(model, 'sgcm', initial, leader_turn, follower_turn, simulate_failures, seed, round_limit,
-                 progress)
+    return _play(leader, 'sgcm', initial, follower_turn, MoveExecutor(model, simulate_failures, rng), progress)
 
 
 def run_greedy(model: RearrangementModel, initial: np.ndarray, simulate_failures: bool = False,
                seed: int = 0, round_limit: int | None = None) -> EpisodeResult:
     """Section V-A baseline: each robot in turn maximises its own one-stage utility."""
-    return _play(model, 'greedy', initial,
-                 lambda number, state, rng: _LeaderTurn(greedy_action(model, state, LEADER)),
+    rng = np.random.default_rng(seed)
+    leader = LeaderRound(model, 'greedy', rng=rng, round_limit=round_limit, moves_can_fail=simulate_failures)
+    return _play(leader, 'greedy', initial,
                  lambda number, seen, round_state, turn: FollowerChoice(
                      greedy_action(model, seen, FOLLOWER), False, 'greedy'),
-                 simulate_failures, seed, round_limit)
+                 MoveExecutor(model, simulate_failures, rng))

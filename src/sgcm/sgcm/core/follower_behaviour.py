@@ -47,6 +47,7 @@ class FollowerChoice:
     action: int
     deviated: bool          # did not follow the recommendation
     reason: str
+    by_chance: bool = False  # a random draw decided it (the random behaviour, every round)
 
 
 def greedy_action(model: RearrangementModel, state: np.ndarray, robot: int, sign: float = 1.0) -> int:
@@ -114,5 +115,5 @@ class Follower:
             moves = feasible[feasible != EMPTY]
             pool = moves if len(moves) else feasible
             action = int(self.rng.choice(pool))
-            return FollowerChoice(action, action != recommended, 'disturbance: random move')
-        return FollowerChoice(recommended, False, 'follows the recommendation')
+            return FollowerChoice(action, action != recommended, 'disturbance: random move', by_chance=True)
+        return FollowerChoice(recommended, False, 'follows the recommendation', by_chance=True)

@@ -16,10 +16,10 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from .core.fse import FSEPlanner
-from .core.rearrangement import RearrangementModel
-from .core.stage_game import solve_fast, solve_milp
-from .core.task_config import Case, TaskConfig
+from ..core.fse import FSEPlanner
+from ..core.rearrangement import RearrangementModel
+from ..core.stage_game import solve_fast, solve_milp
+from ..core.task_config import Case, TaskConfig
 
 VALUE_TOLERANCE = 1e-6
 

@@ -13,15 +13,15 @@ import numpy as np
 import yaml
 from collab_tools.core.bag_analysis import read_messages
 from collab_tools.names import join
-from collab_tools.orchestration.experiment import ExperimentResult, run_experiment
+from collab_tools.orchestration.experiment import SessionRunResult, run_experiment
 
-from .core.episode import EpisodeResult
-from .core.follower_behaviour import FollowerSettings
-from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
-from .core.round_log import LoggedRound, episode_from_log
-from .core.scenario_builder import build_scenario
-from .core.task_config import Case, TaskConfig
-from .ros_conversions import FOLLOWER_REPORT, GUIDANCE as GUIDANCE_TOPIC, action_from_msg
+from ..core.episode import EpisodeResult
+from ..core.follower_behaviour import FollowerSettings
+from ..core.rearrangement import FOLLOWER, LEADER, RearrangementModel
+from ..core.round_log import LoggedRound, episode_from_log
+from ..core.scenario_builder import build_scenario
+from ..core.task_config import Case, TaskConfig
+from ..ros_conversions import FOLLOWER_REPORT, GUIDANCE as GUIDANCE_TOPIC, action_from_msg
 
 # As recorded by a run in the default team namespace.
 GUIDANCE = join('/', GUIDANCE_TOPIC)
@@ -30,7 +30,7 @@ REPORT = join('/', FOLLOWER_REPORT)
 
 def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, config_dir: Path,
              strategy: str = 'sgcm', follower: FollowerSettings | None = None, seed: int = 0,
-             execution_failures: bool = False, log=print, experiment: Path | None = None) -> ExperimentResult:
+             execution_failures: bool = False, log=print, experiment: Path | None = None) -> SessionRunResult:
     """experiment: another experiment file than config/experiments/sgcm_case.yaml (e.g. the same
     nodes split over hosts, with its own discovery); its node names must be the same."""
     follower = follower or FollowerSettings('zero_trust' if strategy == 'greedy' else 'obedient')
@@ -38,11 +38,13 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
     scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
     (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
     overrides = {
+        # moves_can_fail: the leader's stuck rule (sgcm.core.stuck_rule) knows what the scenario says.
         'leader_arm/leader_planner': {'task_file': str(task_file), 'strategy': strategy, 'seed': seed,
-                           'horizon': task.horizon},
+                                      'horizon': task.horizon, 'moves_can_fail': execution_failures},
         'follower_arm/follower_executor': {'task_file': str(task_file), 'behaviour': follower.behaviour,
-                              'deviation_probability': follower.deviation_probability,
-                              'deviation_rounds': list(follower.deviation_rounds) or [0], 'seed': seed + 1},
+                                           'deviation_probability': follower.deviation_probability,
+                                           'deviation_rounds': list(follower.deviation_rounds) or [0],
+                                           'seed': seed + 1},
     }
     return run_experiment(experiment or config_dir / 'experiments' / 'sgcm_case.yaml', config_dir,
                           run_dir=run_dir, overrides=overrides, log=log)
