@@ -12,9 +12,10 @@ Names: everything but /clock, /tf and /tf_static is relative to the node's names
 camera info and robot sensors are sensor data (best effort), the label legend, camera pose
 and ground truth latched, cmd_vel accepted from best-effort publishers.
 
-Parameters: real_time_factor, publish_camera, compressed_rate, jpeg_quality, ground_truth_rate
-and status_rate change at run time (``ros2 param set``); the others are read-only. The bridge
-is the clock source, so ``use_sim_time:=true`` is refused at start (exit 2).
+Parameters (core/settings.py): real_time_factor, publish_camera, compressed_rate, jpeg_quality,
+ground_truth_rate and status_rate change at run time (``ros2 param set``); the others are read-only.
+Pacing and rate schedules are core/pacing.py's. The bridge is the clock source, so
+``use_sim_time:=true`` is refused at start (exit 2).
 """
 
 import sys
@@ -32,21 +33,19 @@ from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import LATCHED, RELIABLE
 
-from .core.errors import ScenarioError
-from .camera_adapter import CameraPublisher
-from .core.frames import robot_transforms, static_transforms
-from .core.scenario import load_scenario
-from .core.scene import Scene
-from .entity_adapters import create_adapters
-from .tf_adapter import TfPublisher
 from . import arm_adapter  # noqa: F401  (registers the arms' adapter)
 from . import sensor_adapter  # noqa: F401  (registers the robots' adapter with their sensors)
+from .camera_adapter import CameraPublisher
+from .core.errors import ScenarioError
+from .core.frames import robot_transforms, static_transforms
+from .core.pacing import RealTimeMeter, SimTimeSchedule, TickPacer, steps_per_tick
+from .core.scenario import load_scenario
+from .core.scene import Scene
+from .core.settings import BRIDGE_SETTINGS
+from .entity_adapters import create_adapters
+from .tf_adapter import TfPublisher
 
 MAX_STEPS_PER_REQUEST = 100_000
-# Ticks run at most this far behind wall-clock pacing before the bridge gives up
-# catching up (a slow machine then just runs below the requested real-time factor).
-MAX_CATCH_UP_TICKS = 10
-MAX_RATE = 1000.0
 
 
 def to_time_msg(seconds: float) -> Time:
@@ -60,19 +59,21 @@ class PybulletBridge(Node):
         super().__init__('pybullet_bridge')
         self.params = NodeParameters(self)
         self.params.refuse_use_sim_time('the bridge is the clock source: it publishes /clock')
-        self._declare_parameters()
-        self.scenario_path = self.params['scenario']
-        self.real_time_factor = self.params['real_time_factor']
-        self.control_period = self.params['control_period']
-        self.ground_truth_rate = self.params['ground_truth_rate']
-        self.status_rate = self.params['status_rate']
+        settings = self.params.declare_schema(BRIDGE_SETTINGS, on_change={
+            'real_time_factor': self._set_real_time_factor, 'ground_truth_rate': self._set_ground_truth_rate,
+            'status_rate': self._set_status_rate})
+        self.scenario_path = settings['scenario']
+        self.control_period = settings['control_period']
+        self.status_rate = settings['status_rate']
+        self.pacer = TickPacer(self.control_period, settings['real_time_factor'])
+        self.ground_truth = SimTimeSchedule(settings['ground_truth_rate'])
 
         try:
             scenario = load_scenario(self.scenario_path)
         except ScenarioError as error:
             raise ConfigurationError(f'scenario {self.scenario_path}: {error}') from None
         self.scene = Scene(scenario)
-        self.paused = self.params['start_paused']
+        self.paused = settings['start_paused']
         self.rejected_messages = 0
         self.adapters = []
 
@@ -101,29 +102,21 @@ class PybulletBridge(Node):
             f'{", paused" if self.paused else ""}')
 
     # --- parameters -------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        declare = self.params.declare
-        declare('scenario', '', 'path to the scenario YAML (see README: scenario files)', required=True)
-        declare('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible',
-                low=0.0, high=1000.0, on_change=self._set_real_time_factor)
-        declare('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '
-                'rounded to a whole number of physics steps', low=0.0, high=1.0, low_open=True)
-        declare('ground_truth_rate', 20.0, 'Hz of simulated time for ground_truth/bodies, /tf and the '
-                "arms' joint_states", low=0.0, high=MAX_RATE, low_open=True,
-                on_change=self._set_ground_truth_rate)
-        declare('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
-                low=0.0, high=MAX_RATE, low_open=True, on_change=self._set_status_rate)
-        declare('start_paused', False, 'start paused; advance with ~/step or ~/pause false')
+    @property
+    def real_time_factor(self) -> float:
+        return self.pacer.real_time_factor
+
+    @property
+    def ground_truth_rate(self) -> float:
+        return self.ground_truth.rate
 
     def _set_real_time_factor(self, value: float) -> None:
-        self.real_time_factor = value
+        self.pacer.real_time_factor = value
         self._start_pacing_timer()
         self.get_logger().info(f'real-time factor {value or "as fast as possible"}')
 
     def _set_ground_truth_rate(self, value: float) -> None:
-        self.ground_truth_rate = value
-        # A lower rate takes effect after the sample already scheduled; a higher one at once.
-        self.next_ground_truth_time = min(self.next_ground_truth_time, self.scene.sim_time + 1.0 / value)
+        self.ground_truth.set_rate(value, self.scene.sim_time)
         for adapter in self.adapters:
             adapter.on_rate_change(self.scene.sim_time)
 
@@ -135,10 +128,9 @@ class PybulletBridge(Node):
         """(Re)start the tick timer for the current real-time factor; pacing re-anchors."""
         if self.timer is not None:
             self.destroy_timer(self.timer)
-        self._pace_reference = None
+        self.pacer.reanchor()
         # A timer per control tick; with real_time_factor 0 it fires back to back.
-        period = self.control_period / self.real_time_factor if self.real_time_factor > 0 else 0.0
-        self.timer = self.create_timer(period, self._on_timer)
+        self.timer = self.create_timer(self.pacer.timer_period, self._on_timer)
 
     def _start_status_timer(self) -> None:
         if self.status_timer is not None:
@@ -152,10 +144,10 @@ class PybulletBridge(Node):
         for adapter in self.adapters:
             adapter.destroy()
         self.adapters = create_adapters(self, self.scene.entities, self.reject)
-        self.steps_per_tick = max(1, round(self.control_period / self.scene.physics_dt))
-        self.next_ground_truth_time = 0.0
-        self._pace_reference = None
-        self._status_reference = (time.monotonic(), self.scene.sim_time)
+        self.steps_per_tick = steps_per_tick(self.control_period, self.scene.physics_dt)
+        self.ground_truth.restart()
+        self.pacer.reanchor()
+        self.status_meter = RealTimeMeter(time.monotonic(), self.scene.sim_time)
         self._publish_latched()
         self._publish_due()
 
@@ -178,20 +170,7 @@ class PybulletBridge(Node):
     def _on_timer(self) -> None:
         if self.paused:
             return
-        ticks = 1
-        if self.real_time_factor > 0:
-            now = time.monotonic()
-            if self._pace_reference is None:
-                self._pace_reference = (now, self.scene.sim_time)
-            wall0, sim0 = self._pace_reference
-            behind = sim0 + (now - wall0) * self.real_time_factor - self.scene.sim_time
-            ticks = int(behind / self.control_period)
-            if ticks > MAX_CATCH_UP_TICKS:
-                ticks = MAX_CATCH_UP_TICKS
-                self._pace_reference = None  # re-anchor instead of spiralling
-            if ticks <= 0:
-                return
-        for _ in range(ticks):
+        for _ in range(self.pacer.ticks_due(time.monotonic(), self.scene.sim_time)):
             self.advance(self.steps_per_tick)
 
     def advance(self, steps: int) -> None:
@@ -209,10 +188,7 @@ class PybulletBridge(Node):
         sim_time = self.scene.sim_time
         stamp = to_time_msg(sim_time)
         self.clock_pub.publish(ClockMsg(clock=stamp))
-        # Small epsilon: rates are in simulated time and ticks land on float sums.
-        epsilon = 1e-9
-        if sim_time + epsilon >= self.next_ground_truth_time:
-            self.next_ground_truth_time = sim_time + 1.0 / self.ground_truth_rate
+        if self.ground_truth.take_if_due(sim_time):
             self._publish_ground_truth(stamp)
         self.camera.publish_due(self.scene, stamp)
 
@@ -234,11 +210,7 @@ class PybulletBridge(Node):
         self.tf.publish(robot_transforms(msg.header.frame_id, bodies), stamp)
 
     def _publish_status(self) -> None:
-        now = time.monotonic()
-        wall0, sim0 = self._status_reference
-        elapsed = now - wall0
-        measured = (self.scene.sim_time - sim0) / elapsed if elapsed > 0 else 0.0
-        self._status_reference = (now, self.scene.sim_time)
+        measured = self.status_meter.measure(time.monotonic(), self.scene.sim_time)
         msg = SimulationStatus(paused=self.paused, step_count=self.scene.step_count,
                                physics_dt=self.scene.physics_dt,
                                target_real_time_factor=self.real_time_factor,
@@ -270,7 +242,7 @@ class PybulletBridge(Node):
 
     def _on_pause(self, request: SetBool.Request, response: SetBool.Response):
         self.paused = bool(request.data)
-        self._pace_reference = None
+        self.pacer.reanchor()
         response.success = True
         response.message = 'paused' if self.paused else 'running'
         return response

@@ -12,7 +12,8 @@ Topics under ``<camera>/`` (relative to the bridge's namespace):
   frame); a frame passed by the throttle goes out on both, so image and labels share stamps.
 * ``pose`` and ``label_legend``: latched.
 
-Parameters (declared here, all dynamic): ``publish_camera``, ``compressed_rate``, ``jpeg_quality``.
+Parameters (core/settings.py CAMERA_SETTINGS, declared here, all dynamic): ``publish_camera``,
+``compressed_rate``, ``jpeg_quality``.
 """
 from __future__ import annotations
 
@@ -31,11 +32,9 @@ from collab_tools.qos import LATCHED, SENSOR_OUT
 
 from .core.frames import optical_frame
 from .core.scene import Scene
+from .core.settings import CAMERA_SETTINGS
 from .core.throttle import EPSILON, RateThrottle
 
-#: compressed_image_transport's default jpeg_quality.
-DEFAULT_JPEG_QUALITY = 95
-MAX_COMPRESSED_RATE = 1000.0
 
 
 def image_msg(array: np.ndarray, encoding: str, stamp: Time, frame_id: str) -> Image:
@@ -63,15 +62,12 @@ class CameraPublisher:
 
     def __init__(self, node: Node, params: NodeParameters, camera_ns: str):
         self._node = node
-        self.publish_camera = params.declare('publish_camera', True, 'render and publish the top-view camera',
-                                             on_change=self._set_publish_camera)
-        rate = params.declare('compressed_rate', 0.0, 'Hz of simulated time for <camera>/image_raw/compressed '
-                              'and <camera>/labels/compressed (at most the camera rate); 0 = every frame',
-                              low=0.0, high=MAX_COMPRESSED_RATE, on_change=self._set_compressed_rate)
-        self.jpeg_quality = params.declare('jpeg_quality', DEFAULT_JPEG_QUALITY, 'JPEG quality of '
-                                           '<camera>/image_raw/compressed (100 = best, largest)', low=1, high=100,
-                                           on_change=self._set_jpeg_quality)
-        self.throttle = RateThrottle(rate)
+        settings = params.declare_schema(CAMERA_SETTINGS, on_change={
+            'publish_camera': self._set_publish_camera, 'compressed_rate': self._set_compressed_rate,
+            'jpeg_quality': self._set_jpeg_quality})
+        self.publish_camera = settings['publish_camera']
+        self.jpeg_quality = settings['jpeg_quality']
+        self.throttle = RateThrottle(settings['compressed_rate'])
         self.image_pub = node.create_publisher(Image, f'{camera_ns}/image_raw', SENSOR_OUT)
         self.labels_pub = node.create_publisher(Image, f'{camera_ns}/labels', SENSOR_OUT)
         self.info_pub = node.create_publisher(CameraInfo, f'{camera_ns}/camera_info', SENSOR_OUT)

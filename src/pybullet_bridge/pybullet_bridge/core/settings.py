@@ -1,0 +1,43 @@
+"""The bridge node's parameters as pure data (declared by the node with NodeParameters.declare_schema).
+
+Dynamic ones (changed with ``ros2 param set``): real_time_factor, ground_truth_rate, status_rate and
+the camera's publish_camera, compressed_rate, jpeg_quality; the others are read-only after start.
+A bad start value stops the node with exit code 2 and ``parameter <name>: <what is allowed>``.
+"""
+from __future__ import annotations
+
+from collab_tools.core.settings import Setting, SettingsSchema
+
+#: Upper bound of every rate parameter (Hz).
+MAX_RATE = 1000.0
+MAX_REAL_TIME_FACTOR = 1000.0
+#: compressed_image_transport's default jpeg_quality.
+DEFAULT_JPEG_QUALITY = 95
+MAX_COMPRESSED_RATE = 1000.0
+
+#: Parameters of the simulation loop (bridge_node.py).
+BRIDGE_SETTINGS = SettingsSchema(
+    Setting('scenario', '', 'path to the scenario YAML (see README: scenario files)', required=True),
+    Setting('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible',
+            low=0.0, high=MAX_REAL_TIME_FACTOR, dynamic=True),
+    Setting('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '
+            'rounded to a whole number of physics steps', low=0.0, high=1.0, low_open=True),
+    Setting('ground_truth_rate', 20.0, 'Hz of simulated time for ground_truth/bodies, /tf and the '
+            "arms' joint_states", low=0.0, high=MAX_RATE, low_open=True, dynamic=True),
+    Setting('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
+            low=0.0, high=MAX_RATE, low_open=True, dynamic=True),
+    Setting('start_paused', False, 'start paused; advance with ~/step or ~/pause false'),
+)
+
+#: Parameters of the top-view camera's publishers (camera_adapter.py), all dynamic.
+CAMERA_SETTINGS = SettingsSchema(
+    Setting('publish_camera', True, 'render and publish the top-view camera', dynamic=True),
+    Setting('compressed_rate', 0.0, 'Hz of simulated time for <camera>/image_raw/compressed '
+            'and <camera>/labels/compressed (at most the camera rate); 0 = every frame',
+            low=0.0, high=MAX_COMPRESSED_RATE, dynamic=True),
+    Setting('jpeg_quality', DEFAULT_JPEG_QUALITY, 'JPEG quality of <camera>/image_raw/compressed '
+            '(100 = best, largest)', low=1, high=100, dynamic=True),
+)
+
+#: Every parameter of the pybullet_bridge node, in declaration order.
+NODE_SETTINGS = BRIDGE_SETTINGS.extended(*CAMERA_SETTINGS)
