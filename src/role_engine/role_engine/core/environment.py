@@ -26,9 +26,7 @@ import numpy as np
 from scipy import ndimage
 
 from collab_tools.core.fields import Fields, fail, read_yaml_file
-# TRANSITION (issue 12): the bridge helper is moving the obstacle section's pure part (this reader
-# included) out of the module that spawns bodies; import it from there once it lands.
-from pybullet_bridge.core.obstacles import read_grey_image
+from pybullet_bridge.core.occupancy_map import read_grey_image    # one reader for the simulation's and the planner's maps
 
 from .errors import RoleEngineError
 from .grid import GridFrame, image_rows_to_grid
