@@ -1,13 +1,75 @@
-"""Pure-Python core of Stackelberg guided collaborative manipulation (no ROS imports).
+"""Pure-Python core of Stackelberg guided collaborative manipulation (no ROS, no simulator).
 
-Where each part of the paper (stackelberg_guidance_sgcm.txt) lives:
-- task_config.py: the task's parameters (grid, colours and goals, costs with the clutter
-  rule, reward, utilities, T, gamma, p_fail) and the initial configurations (cases).
-- rearrangement.py: states, actions (8 directions for the leader, 4 for the follower),
-  transitions with the four failure outcomes, costs, rewards, stage utilities (Section III, V).
-- stage_game.py: one stage game (Q_t^A)/(Q_t^B): the MILP (Q~_t^A) and a faster exact method.
-- fse.py: forward prediction of S_1..S_T and backward dynamic programming (Section IV-A, Alg. 1).
-- episode.py: the rolling-horizon loop of Algorithm 1, the greedy baseline, Table I accounting.
-- follower_behaviour.py: obedient, myopic, zero-trust, random (disturbance) and adversarial followers.
-- centralized.py: the joint planner giving the lower bound on rounds.
+Paper: "Stackelberg Guided Collaborative Manipulation" (SGCM; ``shared/papers/stackelberg_guidance_sgcm.txt``):
+a leader arm (she, more actions, plans ahead) guides a follower arm (he, fewer actions, myopic)
+through a multi-object rearrangement task by solving a feedback Stackelberg equilibrium (FSE) over
+a rolling horizon and recommending his move. The experiments (Table I, Fig. 4, Fig. 5) are in
+``sgcm/experiments/``; the two ROS nodes (leader_planner, follower_executor) drive the classes
+named below.
+
+Where the paper is implemented
+------------------------------
+==============================================  ====================================================
+Paper                                           Module (main names)
+==============================================  ====================================================
+Sec. III workspace cells, object types,         task_config (TaskConfig, Workspace, load_task);
+goals; Sec. V set-up (3x3 grid, colours,        config/sgcm/task.yaml documents every field
+bottom-row goals)
+Sec. III state s (objects per cell and type)    rearrangement (RearrangementModel.state_of, key)
+Sec. III actions A^A (8 directions), A^B (4),   rearrangement (ActionTable, Move, feasible,
+the empty action                                can_apply, apply)
+Sec. III p_fail^A, p_fail^B; the four outcomes  rearrangement (RearrangementModel.stage: outcome
+(a^A,a^B), (a^A,0), (0,a^B), (0,0)              probabilities, successor_states, step)
+Sec. V costs, doubled in crowded cells          task_config (RobotModel, ClutterRule),
+                                                rearrangement (cost, expected_costs)
+Sec. V reward "proportional to the distance     task_config (RewardModel), rearrangement (reward,
+to the goal"                                    outcome_rewards, goal_state)
+Stage utility u^i(s,a^A,a^B) = r - costs;       task_config (UtilityWeights),
+Sec. III-A guidance by equal utilities          rearrangement (stage_utilities)
+Terminal utility u_T^i(s_T) = r(s_T)            fse (FSEPlanner.plan: v_T)
+J^i, discount gamma, horizon T                  task_config (TaskConfig.discount, horizon), fse
+(Q_t^A), (Q_t^B(pi_t^A)): one stage game        stage_game (StageSolution; solve_fast: one LP per
+                                                follower action, exact)
+KKT conditions (1), big-M                       stage_game (big_m, solve_milp)
+(Q~_t^B), (Q~_t^A) MIQP -> MILP with z_t        stage_game (solve_milp, HiGHS)
+Sec. IV-A dynamic programming for the FSE       fse (FSEPlanner.plan: backward over S_T-1 .. S_0)
+Remark (Sec. IV-B) reachable sets S_0..S_T      fse (FSEPlanner._expand: forward prediction)
+Algorithm 1 lines 3-10 forward prediction       fse (FSEPlanner._expand)
+Algorithm 1 lines 11-18 dynamic programming     fse (FSEPlanner.plan), stage_game
+Algorithm 1 line 19 leader executes pi_0^A*,    leader_round (LeaderRound.observe -> LeaderTurn:
+recommends pi_0^B* (rolling horizon, Sec. IV-C) her move, sampled if mixed; the recommendation)
+Algorithm 1 lines 20-23 observe, stop at goal   leader_round (LeaderRound.observe: goal, stuck,
+                                                round limit); stuck_rule (StuckRule: the "stuck"
+                                                of Table I / Fig. 3, one rule for core and nodes)
+Algorithm 1, the whole loop (abstract game)     episode (run_sgcm, MoveExecutor, EpisodeResult)
+Algorithm 1 on the arms (leader_planner node)   leader_rounds (LeaderRounds, LeaderPhase,
+                                                LeaderPort)
+Sec. V follower "senses the current situation"  follower_behaviour (Follower: obedient, myopic
+and executes the recommendation; Sec. V-B       best_response, zero_trust, random disturbance,
+disturbance, zero trust (Fig. 5)                adversarial), follower_rounds (FollowerRounds:
+                                                the follower_executor node's rounds)
+Sec. V-A greedy baseline                        follower_behaviour (greedy_action), episode
+                                                (run_greedy), leader_round (strategy 'greedy')
+Table I accounting (stage-wise utility, sum     episode (RoundRecord.stage_utility,
+over interaction rounds)                        EpisodeResult.utility_over)
+Table I from recorded runs (simulation)         round_log (LoggedRound, episode_from_log)
+Table I rounds, lower bound (ours)              centralized (CentralizedPlanner: A* joint plan)
+Fig. 1 / Fig. 2 the ten initial cases           task_config (Case, load_cases);
+                                                config/sgcm/cases.yaml
+Fig. 1 simulation in PyBullet                   scenario_builder (build_scenario: the bridge's
+                                                scenario of a case)
+Sec. V "perception is vision-based"             perception (estimate_state, classify_colour)
+The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
+                                                LeaderSettings, FollowerExecutorSettings)
+Table I, Fig. 4, Fig. 5 experiments             sgcm.experiments (table1, disturbance)
+==============================================  ====================================================
+
+Choices where the paper is silent (each documented where it is made)
+---------------------------------------------------------------------
+* Feasibility, relays, blocked follower moves and the cost of failed moves: rearrangement.
+* Tie-breaking among equilibria (strong Stackelberg, then the follower's value, then the lowest
+  follower action, a pure leader strategy when one attains the values): stage_game.
+* When a task is stuck (the paper's greedy "gets stuck in the last state", Fig. 3): stuck_rule --
+  a state comes back after rounds in which nothing was left to chance (no failure possible or
+  seen, no random draw), which includes a round with both arms idle.
 """
