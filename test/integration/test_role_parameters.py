@@ -1,6 +1,6 @@
 """set_parameters on role_engine and a role player: every dynamic parameter is applied, every other one
-is refused (read-only), and so is a value of the wrong type or out of range; bad start-up values stop
-the node with exit code 2.
+is refused (read-only), and so is a value of the wrong type or out of range. Bad start-up values:
+test/unit/roles/test_role_settings.py (and one exit-code test per node in test_role_nodes.py).
 
 What each dynamic parameter changes is observed where it shows outside the node: the engine's
 start delay in the assignment, its silence / stuck / off-role thresholds and min_robots in why it
@@ -25,7 +25,7 @@ from role_interfaces.msg import ProcessRole
 from collab_tools.qos import RELIABLE, SENSOR_IN
 from bridge_helpers import bridge_spec
 from role_engine.core.formation_task import load_formation_task
-from role_engine.role_parameters import ENGINE_TUNING, PLAYER_TUNING
+from role_engine.core.node_settings import ENGINE_TUNING, PLAYER_TUNING
 from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec, tracker_spec
 
 ROS_OWN = {'use_sim_time', 'start_type_description_service'}   # rclpy's, not the node's
@@ -242,20 +242,3 @@ def test_role_player_applies_its_tuning_and_refuses_the_rest(session, settings_f
     assert set_one(session, node, 'arrival_tolerance', 5.0).successful
     wait_until(lambda: any(arrived for _, arrived, _ in heard.roles), 120, 'the arrived report')
     assert 'Traceback' not in player_process(session, robot).log_path.read_text()
-
-
-# ------------------------------------------------------------------------------------ start-up
-@pytest.mark.parametrize('spec_of, expected', [
-    (lambda settings: engine_spec(settings, min_robots=0), 'min_robots'),
-    (lambda settings: player_spec('burger_1', settings, max_linear_velocity=0.5),   # burger's limit: 0.22 m/s
-     'max_linear_velocity'),
-])
-def test_bad_start_parameters_exit_2(session, settings_file, spec_of, expected):
-    spec = spec_of(settings_file)
-    if spec.executable == 'role_player':                     # its limits come with the engine's team
-        session.start(engine_spec(settings_file))
-    process = session.start(spec)
-    assert session.wait_for_exit(spec.label, timeout=60.0) == 2
-    log = process.log_path.read_text()
-    fatal = next(line for line in log.splitlines() if 'cannot start' in line)
-    assert expected in fatal and 'Traceback' not in log, log

@@ -43,34 +43,21 @@ from rclpy.task import Future
 from nav_msgs.msg import OccupancyGrid
 from role_interfaces.msg import ProcessRole, RoleAssignment, Team
 
-from pybullet_bridge.core.scenario import load_scenario
 from collab_tools import qos
 from collab_tools.names import TeamNode
-from collab_tools.node_support import ConfigurationError, run
+from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
 from collab_tools.top_camera import TopCamera
 
 from .core.engine import CameraView, RoleEngine as EngineBehaviour, RoundOutcome
 from .core.errors import RoleEngineError
-from .core.formation_task import load_formation_task, team_from_scenario
 from .core.grid import GridFrame
-from .core.node_settings import ENGINE_SETTINGS, engine_tuning_schema, tuned
+from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tuning_schema, tuned
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
 from .core.tuning import EngineTuning
 from .port_logging import PortLogger
 from .role_messages import occupancy_grid_msg, process_role_msg, shared_role, team_msg
-
-
-def load_settings(path: str):
-    """Settings, scenario and team, or ConfigurationError naming the field. The players take only the
-    settings file (role_player_node.load_player_task): the team and map reach them over ROS."""
-    try:
-        task = load_formation_task(path)
-        scenario = load_scenario(task.scenario)
-        return task, scenario, team_from_scenario(scenario, task.inflation_margin)
-    except ValueError as error:          # RoleEngineError and the bridge's ScenarioError
-        raise ConfigurationError(f'parameter settings_file: {error}') from None
 
 
 class RoleEngine(Node):
@@ -79,7 +66,7 @@ class RoleEngine(Node):
         params = NodeParameters(self)
         self.names = TeamNode(self, params)
         settings = params.declare_schema(ENGINE_SETTINGS)
-        self.task, scenario, self.team = load_settings(settings['settings_file'])
+        self.task, scenario, self.team = engine_settings_file(settings['settings_file'])
         self.exit_when_done = settings['exit_when_done']
         tuning = EngineTuning.from_task(self.task)
         schema = engine_tuning_schema(tuning)

@@ -45,8 +45,7 @@ from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
 
 from .core.errors import RoleEngineError
-from .core.formation_task import load_formation_task
-from .core.node_settings import PLAYER_SETTINGS, player_tuning_schema, team_member, tuned
+from .core.node_settings import PLAYER_SETTINGS, player_settings_file, player_tuning_schema, team_member, tuned
 from .core.player import PublishedRole, RolePlayer as PlayerBehaviour, RoundAssignment
 from .core.tuning import PlayerTuning
 from .port_logging import PortLogger
@@ -56,20 +55,12 @@ from .role_messages import environment_of, planar_pose, process_role_msg, shared
 POSE_TIMEOUT = 1.0
 
 
-def load_player_task(path: str):
-    """The settings file of a player: the formation task, its scenario not read (ConfigurationError)."""
-    try:
-        return load_formation_task(path, check_scenario=False)
-    except ValueError as error:
-        raise ConfigurationError(f'parameter settings_file: {error}') from None
-
-
 class RolePlayer(Node):
     def __init__(self):
         super().__init__('role_player')
         self.params = NodeParameters(self)
         self.names = RobotNode(self, self.params)
-        self.task = load_player_task(self.params.declare_schema(PLAYER_SETTINGS)['settings_file'])
+        self.task = player_settings_file(self.params.declare_schema(PLAYER_SETTINGS)['settings_file'])
         self.robot = self.names.robot
         self.member = None                   # from the team description
         self.player: PlayerBehaviour | None = None

@@ -23,8 +23,10 @@ from typing import Any, Mapping, Sequence, TypeVar
 from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.settings import Setting, SettingsSchema
 
+from pybullet_bridge.core.scenario import load_scenario
+
 from .errors import RoleEngineError
-from .formation_task import TeamMember
+from .formation_task import FormationTask, TeamMember, load_formation_task, team_from_scenario
 from .gp_planner import FORMULATIONS
 from .tracking import TrackingSettings
 from .tuning import EngineTuning, PlayerTuning
@@ -158,6 +160,25 @@ def tuned(tuning: Tuning, values: Mapping[str, Any]) -> Tuning:
 def tracking_settings(values: Mapping[str, Any]) -> TrackingSettings:
     """The colour thresholds of the tracker's parameter values (the camera is not one of them)."""
     return TrackingSettings(**{name: values[name] for name in TRACKER_SETTINGS.names if name != 'camera'})
+
+
+def engine_settings_file(path: str):
+    """The engine's settings file: (task, bridge scenario, team), or ConfigurationError naming the parameter."""
+    try:
+        task = load_formation_task(path)
+        scenario = load_scenario(task.scenario)
+        return task, scenario, team_from_scenario(scenario, task.inflation_margin)
+    except ValueError as error:          # RoleEngineError and the bridge's ScenarioError
+        raise ConfigurationError(f'parameter settings_file: {error}') from None
+
+
+def player_settings_file(path: str) -> FormationTask:
+    """A player's settings file: the formation task, its scenario not read (the team and the map come from
+    the engine), or ConfigurationError naming the parameter."""
+    try:
+        return load_formation_task(path, check_scenario=False)
+    except ValueError as error:
+        raise ConfigurationError(f'parameter settings_file: {error}') from None
 
 
 def team_member(team: Sequence[TeamMember], robot: str, namespace: str) -> TeamMember:

@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 
 from collab_tools.experiments import plots
-from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
+from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Log
 
 from .collab import ROBOT_COLOURS
 from .formation_bag import CHANNEL, FormationLog, commanded_positions, formation_results, read_formation_bag
