@@ -97,6 +97,8 @@ def test_table3_writes_its_outputs_and_progress(table3):
     results, run_dir, lines = table3
     stored = json.loads((run_dir / 'results.json').read_text())
     assert stored['emap']['feasibility'] == results['emap']['feasibility']
+    assert stored['schema'] == 'collab-experiment/1' and stored['experiment'] == 'roles-table3'
+    assert stored['passed'] is stored['acceptance']['passed'] is True and stored['problem_seed'] == 3
     table = (run_dir / 'table3.md').read_text()
     assert '| method | feasibility | average error | average converging time (iterations) |' in table
     assert re.search(r'\| Our method \(E-Map initialisation\) \| 100\.00% \|', table)

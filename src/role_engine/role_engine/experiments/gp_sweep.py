@@ -25,6 +25,10 @@ Measures (where the paper is terse, what is measured here):
 - *converging time*: LM iterations (accepted steps) of the assigned process roles, averaged over
   the feasible ones only ("only the converging times for the feasible cases ... are considered").
 
+results.json (beside the schema's keys): the tables' own ``problem_seed`` (the schema's ``seed`` is
+the command line's) and ``paper_rows`` (the paper's values; ``paper`` is the reference), the
+per-method summaries, ``per_environment``, ``per_sigma``, ``scenarios`` and every problem's detail.
+
 Choices where the paper is silent: process roles start and end with the velocity of their
 initial path (GPMP2 fixes start and goal velocities; zeros made the E-Map paths' corners far
 harder to keep); the LM starts with GPMP2's damping (``gp.lambda_initial``); the same problems
