@@ -118,13 +118,10 @@ class RolePlayer(Node):
         if msg.round <= self.player.round:
             return
         roles = {}
-        for role in msg.initial_roles:
+        for role in msg.initial_roles:       # a malformed one is dropped (its own: the robot has no role)
             converted = self._shared_role(role)
             if converted is not None:
                 roles[role.robot] = (role.role_id, converted)
-        mine = [r for r in msg.initial_roles if r.robot == self.robot]
-        if mine and self.robot not in roles:
-            roles[self.robot] = (mine[0].role_id, shared_role(mine[0]))   # as before: malformed own role raises
         self.assignment_stamp = msg.header.stamp
         self.player.on_assignment(RoundAssignment(msg.round, msg.status, msg.message, roles))
 
