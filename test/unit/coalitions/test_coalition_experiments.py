@@ -197,3 +197,25 @@ def test_fig7_bad_options_are_refused_before_anything_runs(config_dir, tmp_path,
     with pytest.raises(ConfigError, match=message):
         run_named('coalition-fig7', config_dir, tmp_path / 'run', **options)
     assert not (tmp_path / 'run' / 'results.json').exists()
+
+
+def test_fig7_sim_runs_the_core_experiment_first_into_core(config_dir, tmp_path, monkeypatch):
+    """--mode sim: the core run (its own results.json, mode core) before the session; a session
+    without a bag is an error naming its logs."""
+    from types import SimpleNamespace
+
+    from collab_tools.experiments.api import load_results
+    from coalition_agents.experiments import fig7_sim
+    sessions = []
+
+    def no_bag(run_dir, *args, **kwargs):
+        sessions.append((run_dir, kwargs['sensor_names']))
+        return SimpleNamespace(bag=None, message='no nodes here', exit_code=1)
+    monkeypatch.setattr(fig7_sim, 'run_session', no_bag)
+    with pytest.raises(RuntimeError, match='fig7 sim: no bag'):
+        run_named('coalition-fig7', config_dir, tmp_path, mode='sim', loss=0.2)
+    core = load_results(tmp_path / 'core')
+    assert core['experiment'] == 'coalition-fig7' and core['options']['mode'] == 'core' and core['passed']
+    assert core['table5'][0]['robot'] == 'robot_red' and (tmp_path / 'core' / 'table5.md').exists()
+    assert sessions == [(tmp_path / 'sim', {'localization': 'gps'})]
+    assert not (tmp_path / 'results.json').exists()
