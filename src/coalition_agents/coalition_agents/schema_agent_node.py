@@ -71,7 +71,6 @@ SENSOR_TOPICS = {
     'bumper': ('bumper', BumperState),
 }
 assert tuple(SENSOR_TOPICS) == BRIDGE_SENSORS
-LOG_LEVELS = ('info', 'warning', 'error')
 
 
 class SchemaAgentNode(Node):
@@ -187,7 +186,13 @@ class SchemaAgentNode(Node):
             self.cmd_pub.publish(Twist(linear=Vector3(x=velocity.linear), angular=Vector3(z=velocity.angular)))
 
     def log(self, level: str, text: str) -> None:
-        getattr(self.get_logger(), level if level in LOG_LEVELS else 'info')(text)
+        # One call per severity: rclpy keys a logger's severity by the calling line.
+        if level == 'error':
+            self.get_logger().error(text)
+        elif level == 'warning':
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
 
     def finish(self) -> None:
         if not self.finished.done():
