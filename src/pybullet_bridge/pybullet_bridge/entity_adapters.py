@@ -20,7 +20,7 @@ from rclpy.timer import Timer
 from collab_tools.qos import SENSOR_IN
 
 from .core.mobile_robot import MobileRobot
-from .core.scene import SceneEntity
+from .core.entity import SceneEntity
 
 # Reports a dropped input: (source, reason). The bridge logs and counts it.
 RejectFn = Callable[[str, str], None]

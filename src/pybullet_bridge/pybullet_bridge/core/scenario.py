@@ -138,10 +138,11 @@ Schema (defaults shown; fields without a default are required)::
         yaw: 0.0                      # rad
         color: [0.55, 0.3, 0.7]       # r g b in [0, 1]
 
-Any other top-level key must be a section registered with
-:func:`register_section` (later work adds arms, cubes, sensors that way without
-editing this module or the bridge loop). Scene names must be unique across all
-sections; ``walls`` is reserved when the world has walls.
+Any other top-level key must be a section: this module registers the built-in ones
+(:data:`BUILTIN_SECTIONS`); a new kind registers itself with :func:`register_section`
+without editing this module or the bridge loop. Section parsers return pure definitions
+(no simulator); :class:`.scene.Scene` simulates them. Scene names must be unique across
+all sections; ``walls`` is reserved when the world has walls.
 
 Segmentation labels: 0 is the background (ground), the walls (if any) get 1,
 then entities follow in section registration order (mobile_robots, obstacles,

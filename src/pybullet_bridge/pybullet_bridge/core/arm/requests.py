@@ -37,6 +37,12 @@ RESTING_TOLERANCE = 0.01
 EntityT = TypeVar('EntityT')
 
 
+class ArmCamera(PixelCamera, Protocol):
+    """The camera a request is checked against (:class:`..camera.TopViewCamera` is one)."""
+
+    def ground_footprint(self) -> tuple[float, float, float, float]: ...
+
+
 class ArmScene(Protocol):
     """What an arm's task needs from the scene (:class:`..scene.Scene` is one)."""
 
@@ -51,10 +57,6 @@ class ArmScene(Protocol):
     def body_pose(self, body_id: int) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]: ...
 
     def render(self): ...
-
-
-class ArmCamera(PixelCamera, Protocol):
-    def ground_footprint(self) -> tuple[float, float, float, float]: ...
 
 
 @dataclass(frozen=True)
