@@ -20,28 +20,11 @@ Per robot, as in Algorithm 2:
 4. ``coalitions`` instantiates the task's potential solutions: the feasible ones, cheapest first.
 
 Event-driven evaluation (ours; the result is the one of re-instantiating everything every tick):
-a potential solution is re-instantiated only when one of its inputs changed. An offer from a new
-provider or of a new instance for one of its request labels adds only the instantiations that
-use at least one of the new offers (semi-naive, :meth:`~.coalition.RobotReasoner.local_coalition_solutions`
-``new_offers``). An offer that is no longer usable -- replaced by its provider's cheaper one, or
-(a reply uses the cheapest offer per instance) undercut by another provider's -- is *gone*: only
-the answers whose cheapest way used it are instantiated again, each restricted to that answer
-(the ways it beat before may be its cheapest now); every other kept answer is still the
-cheapest without the new offers. A change in the set of current readings of one of its sensors
-(a new detection, a reading that expired) re-instantiates it completely. The answers of every
-potential solution are kept; a reply space's best answers are merged from them, and a new
-subscriber of an existing reply space is sent the existing best answers without any
-re-instantiation (the others only the answers whose cost changed). The task's own potential
-solutions (``coalitions``) are cached the same way. Equal-cost answers are decided by
-:func:`_answer_order` (not by the order instantiations are found), so incremental and full
-evaluation choose the same. ``evaluations`` counts instantiations of a potential solution (the
-work done), ``repaired_answers`` the answers instantiated again; ``incremental=False``
-re-instantiates everything on every call, the reference the unit tests compare against. A tick
-consumes the changes pending when it starts: offers a robot sends itself during a tick are
-evaluated at the next one, as in a full re-evaluation (which takes its view of the offers when
-the tick starts). With a time budget a tick stops between reply spaces and leaves the rest,
-with their pending changes, to the next call (round robin), so that a transport can run
-between slices.
+a potential solution is re-instantiated only when one of its inputs changed (see
+:mod:`.agent_spaces`); ``incremental=False`` re-instantiates everything on every call, the
+reference the unit tests compare against. With a time budget a tick stops between reply spaces
+and leaves the rest, with their pending changes, to the next call (round robin), so that a
+transport can run between slices.
 
 While a coalition executes, ``served_answers`` names what a helper streams to its coalition and
 ``own_answers`` how a robot computes the answers it gives itself (footnote 10); ``restart``
@@ -51,22 +34,20 @@ Choices where the paper is silent (ours):
 
 * What the sensors retrieve comes from their live reports (:class:`~.live_sensing.LiveSensing`:
   a reading is current for ``reading_timeout_s`` after the sensor's last report).
-* Offers on the wire carry the helper coalition's cost and members, not its solution
-  (:mod:`.channel_codec`). The coalition cost is therefore computed from the offers:
-  ``own schemas + sum(offer cost - helper MS * offer members) + helper MS * helpers``
-  (:func:`coalition_cost_from_offers`). It equals :func:`~.coalition.coalition_cost` unless two
-  offers of one coalition share a helper's LCS (the in-process search counts a shared LCS once;
-  across robots that sharing is not visible, so it is counted per offer -- an upper bound).
+* Offers on the wire carry the helper coalition's cost and members, not its solution, so the
+  coalition cost is computed from the offers (:func:`~.agent_spaces.coalition_cost_from_offers`).
 * Offers are accepted only for labels this robot requested and only if they answer them; others
   are refused with a reason (:class:`OfferRejected`), never raised into the transport.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Iterable, Mapping, Protocol, Sequence
 
+from .agent_spaces import (
+    Answer, FeasibleCoalition, ReceivedOffer, ReplySpace, RootSpace, SpaceChanges, better_answer,
+    coalition_cost_from_offers, offer_rank,
+)
 from .capabilities import RobotCapabilities
 from .coalition import RobotReasoner
 from .coalition_solution import InformationOffer, LocalCoalitionSolution
@@ -74,10 +55,10 @@ from .errors import RequestError
 from .information import InformationInstance
 from .live_sensing import LiveSensing
 from .requests import InformationRequest, addressees, answers_request, to_absolute
-from .transport.codec import OfferSummary
 from .schemas import Costs, SchemaKind, SchemaLibrary
-from .solution_space import COST_DIGITS, PotentialSolution, SolutionSpaceCache
+from .solution_space import PotentialSolution, SolutionSpaceCache
 from .tasks import Task
+from .transport.codec import OfferSummary
 
 #: The handle of a request this robot sent to itself (footnote 10: answered locally).
 SELF = 'self'
@@ -100,147 +81,6 @@ class OfferRejected(RequestError):
     """An offer the agent cannot use (the message says why)."""
 
 
-@dataclass(frozen=True)
-class FeasibleCoalition:
-    """An executable coalition found by the local robot: its LCS, members (the robot first)
-    and coalition cost."""
-
-    lcs: LocalCoalitionSolution
-    members: tuple[str, ...]
-    cost: float
-
-    @cached_property
-    def order(self) -> tuple:
-        """Sort key: cost, then the potential solution's rank, the members and the schemas."""
-        return self.cost, self.potential_solution.rank, self.members, tuple(self.lcs.step_lines())
-
-    @property
-    def potential_solution(self) -> PotentialSolution:
-        return self.lcs.potential_solution
-
-    def sensors(self) -> tuple[str, ...]:
-        """The local robot's sensors this coalition keeps active."""
-        return tuple(dict.fromkeys(step.schema for step, _, _ in self.lcs.sources if step.kind is SchemaKind.ES_EPS))
-
-    def describe(self) -> str:
-        lines = [f'coalition of {", ".join(self.members)}: cost {self.cost:g} '
-                 f'(potential solution {self.potential_solution.rank + 1}, {self.potential_solution.cost:g})']
-        lines.extend(f'  {line}' for line in self.lcs.step_lines())
-        return '\n'.join(lines)
-
-
-def coalition_cost_from_offers(lcs: LocalCoalitionSolution, offer_members: Sequence[tuple[str, ...]],
-                               helper_motor_schema_cost: float, *, root_is_helped: bool) -> tuple[float, tuple[str, ...]]:
-    """(coalition cost, members) of ``lcs`` from its offers' costs and members (see the module
-    docstring); ``root_is_helped=False`` gives the cost of an offer (every member a helper)."""
-    total = lcs.local_cost
-    robots: set[str] = {lcs.robot}
-    for offer, members in zip(lcs.offers, offer_members):
-        total += offer.cost - helper_motor_schema_cost * len(members)
-        robots.update(members)
-    helpers = len(robots) - (1 if root_is_helped else 0)
-    members = (lcs.robot, *sorted(robots - {lcs.robot}))
-    return round(total + helper_motor_schema_cost * helpers, COST_DIGITS), members
-
-
-Answer = tuple[float, tuple[str, ...], LocalCoalitionSolution]
-
-
-def _answer_order(entry: Answer) -> tuple:
-    """Ties between equal-cost ways to one answer: fewer robots, then members, then the
-    potential solution's rank, then the instances used (a total order: the choice does not
-    depend on the order in which instantiations were found)."""
-    cost, members, lcs = entry
-    return (cost, len(members), members, lcs.potential_solution.rank,
-            tuple(str(instance) for _, instance, _ in lcs.sources),
-            tuple((offer.provider, str(offer.instance)) for offer in lcs.offers))
-
-
-def _offer_rank(offer: InformationOffer) -> tuple[float, str]:
-    """Which of two offers of one instance a reply uses (the cheapest, ties by provider)."""
-    return offer.cost, offer.provider
-
-
-def _better(entry: Answer, kept: Answer | None) -> bool:
-    if kept is None or entry[0] < kept[0]:
-        return True
-    return entry[0] == kept[0] and _answer_order(entry) < _answer_order(kept)
-
-
-@dataclass
-class _Changes:
-    """What changed for a space's potential solutions since they were last instantiated."""
-
-    #: potential solutions with new offers (semi-naive update)
-    dirty: set[int] = field(default_factory=set)
-    #: potential solutions to instantiate completely (new, or their readings changed)
-    stale: set[int] = field(default_factory=set)
-    #: the new offers, per request label
-    new_offers: dict[InformationInstance, list[InformationOffer]] = field(default_factory=dict)
-    #: ids of offers no longer usable (see :meth:`SchemaAgent.on_offer`)
-    gone: set[int] = field(default_factory=set)
-
-    def take(self) -> '_Changes':
-        """These changes, leaving none."""
-        taken = _Changes(self.dirty, self.stale, self.new_offers, self.gone)
-        self.dirty, self.stale, self.new_offers, self.gone = set(), set(), {}, set()
-        return taken
-
-    def merge(self, earlier: '_Changes') -> None:
-        """Put back changes taken but not evaluated (they happened before the present ones)."""
-        self.dirty |= earlier.dirty
-        self.stale |= earlier.stale
-        self.gone |= earlier.gone
-        for label, offers in earlier.new_offers.items():
-            self.new_offers[label] = offers + self.new_offers.get(label, [])
-
-    def add_offer(self, indices: Iterable[int], offer: InformationOffer) -> None:
-        """A new offer for the potential solutions ``indices`` (those using its request label)."""
-        self.dirty.update(indices)
-        self.new_offers.setdefault(offer.request, []).append(offer)
-
-
-@dataclass
-class _ReplySpace:
-    variant: InformationInstance
-    solutions: list[PotentialSolution]
-    subscribers: list[tuple[InformationRequest, object]] = field(default_factory=list)
-    sent: dict[tuple[int, InformationInstance], float] = field(default_factory=dict)
-    #: answer -> (offer cost, members, LCS) of the cheapest way found at the last evaluation
-    best: dict[InformationInstance, Answer] = field(default_factory=dict)
-    #: per potential solution (index): answer -> its cheapest (offer cost, members, LCS)
-    answers: dict[int, dict[InformationInstance, Answer]] = field(default_factory=dict)
-    changes: _Changes = field(default_factory=_Changes)
-    #: subscribers that have not been sent the current best answers yet
-    unserved: bool = False
-    #: answers whose cost changed since the subscribers were last served
-    changed: set[InformationInstance] = field(default_factory=set)
-    #: how many subscribers (the first ones) were served every answer
-    served: int = 0
-
-    @property
-    def has_work(self) -> bool:
-        return bool(self.changes.dirty or self.changes.stale or self.unserved)
-
-
-@dataclass
-class _RootSpace:
-    """The task's potential solutions and, per solution, its feasible coalitions (cached)."""
-
-    solutions: list[PotentialSolution] = field(default_factory=list)
-    found: dict[int, list[FeasibleCoalition]] = field(default_factory=dict)
-    changes: _Changes = field(default_factory=_Changes)
-    #: every found coalition without an excluded robot, sorted (None: to be sorted again)
-    ordered: list[FeasibleCoalition] | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class _ReceivedOffer(InformationOffer):
-    """An offer from the wire: the helper coalition's members instead of its solution."""
-
-    members: tuple[str, ...] = ()
-
-
 class SchemaAgent:
     """One robot's coalition reasoning (see the module docstring). ``task`` None = a pure
     helper; ``team_task`` is then the task the team works on (its priors and helper MS)."""
@@ -261,8 +101,8 @@ class SchemaAgent:
         self.reading_timeout_s = reading_timeout_s
         self.reasoner = RobotReasoner(robot, team[robot], library, costs, context, cache=cache,
                                       potential_solution_limit=potential_solution_limit)
-        self._root = _RootSpace()
-        self.spaces: dict[InformationInstance, _ReplySpace] = {}
+        self._root = RootSpace()
+        self.spaces: dict[InformationInstance, ReplySpace] = {}
         self.incremental = incremental
         #: instantiations of a potential solution done so far (the reasoning work)
         self.evaluations = 0
@@ -322,7 +162,7 @@ class SchemaAgent:
         if self.task is None:
             return
         plan = self.reasoner.plan_task()
-        self._root = _RootSpace(list(plan.solutions))
+        self._root = RootSpace(list(plan.solutions))
         self._register(self._root, self._root.solutions)
         self._activate(sensor for sensor, _ in plan.sensors)
         self._send(plan.requests)
@@ -341,10 +181,10 @@ class SchemaAgent:
         self._cheapest.clear()
         self.reasoner.ledger.sent.clear()
         self._unregister_root()
-        self._root = _RootSpace()
+        self._root = RootSpace()
         for space in self.spaces.values():  # their offers are gone too
             space.answers.clear()
-            space.changes = _Changes(stale=set(range(len(space.solutions))))
+            space.changes = SpaceChanges(stale=set(range(len(space.solutions))))
         self.start()
 
     # Serving requests --------------------------------------------------------------------------------
@@ -355,7 +195,7 @@ class SchemaAgent:
         for variant in variants:
             space = self.spaces.get(variant)
             if space is None:
-                space = _ReplySpace(variant, self.reasoner.reply_solutions(variant))
+                space = ReplySpace(variant, self.reasoner.reply_solutions(variant))
                 self.spaces[variant] = space
                 self._register(space, space.solutions)
                 chain = request.extended_chain
@@ -383,19 +223,19 @@ class SchemaAgent:
         kept = offers.get(key)
         if kept is not None and kept[0].cost <= offer.cost:
             return
-        received = _ReceivedOffer(offer.provider, offer.request, offer.instance, None, offer.cost,  # type: ignore[arg-type]
+        received = ReceivedOffer(offer.provider, offer.request, offer.instance, None, offer.cost,  # type: ignore[arg-type]
                                   offer.members)
         cheapest = self._cheapest.get((offer.request, offer.instance))
         offers[key] = (received, offer.members)
         self._view = None
-        if cheapest is None or _offer_rank(received) < _offer_rank(cheapest):
+        if cheapest is None or offer_rank(received) < offer_rank(cheapest):
             self._cheapest[(offer.request, offer.instance)] = received
         # What is no longer usable: the task's solutions use every offer (the replaced one is
         # gone); a reply uses the cheapest per instance (an undercut one is gone).
         replaced = None if kept is None else id(kept[0])
-        undercut = id(cheapest) if cheapest is not None and _offer_rank(received) < _offer_rank(cheapest) else None
+        undercut = id(cheapest) if cheapest is not None and offer_rank(received) < offer_rank(cheapest) else None
         for space, indices in self._label_users.get(offer.request, {}).values():
-            changes: _Changes = space.changes  # type: ignore[attr-defined]
+            changes: SpaceChanges = space.changes  # type: ignore[attr-defined]
             changes.add_offer(indices, received)
             gone = replaced if space is self._root else undercut
             if gone is not None:
@@ -473,7 +313,7 @@ class SchemaAgent:
         self._cursor = 0
         return self.pending()
 
-    def _evaluate(self, space: _ReplySpace, changes: _Changes, sensed, offers) -> None:
+    def _evaluate(self, space: ReplySpace, changes: SpaceChanges, sensed, offers) -> None:
         stale = sorted(changes.stale)
         dirty = sorted(changes.dirty - changes.stale)
         for index in stale:
@@ -482,15 +322,7 @@ class SchemaAgent:
             space.answers[index] = self._repaired_answers(space.solutions[index], sensed, offers, changes.new_offers,
                                                           changes.gone, space.answers.get(index, {}))
         if stale or dirty:
-            best: dict[InformationInstance, Answer] = {}
-            for answers in space.answers.values():
-                for answer, entry in answers.items():
-                    if _better(entry, best.get(answer)):
-                        best[answer] = entry
-            old = space.best
-            space.changed.update(answer for answer, entry in best.items()
-                                 if answer not in old or old[answer][0] != entry[0])
-            space.best = best
+            space.merge_best()
 
     def _repaired_answers(self, solution: PotentialSolution, sensed, offers, new_offers, gone: set[int],
                           answers: dict[InformationInstance, Answer]) -> dict[InformationInstance, Answer]:
@@ -530,7 +362,7 @@ class SchemaAgent:
             cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
                                                        self.helper_motor_schema_cost, root_is_helped=False)
             entry = (cost, members, lcs)
-            if _better(entry, answers.get(answer)):
+            if better_answer(entry, answers.get(answer)):
                 answers[answer] = entry
         return answers
 
@@ -541,7 +373,7 @@ class SchemaAgent:
             return None
         return to_absolute(output, self.robot)
 
-    def _serve(self, space: _ReplySpace) -> None:
+    def _serve(self, space: ReplySpace) -> None:
         """Send each subscriber every answer it can now get more cheaply than before: a new
         subscriber every answer, the others the answers whose cost changed since the last time
         (the others it was sent at their present cost already)."""
