@@ -140,28 +140,6 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
           f'retries {leader.retries}, dropped {leader.dropped}')
 
 
-def test_bad_parameters_and_files_stop_the_agent_with_a_message(session, files, tmp_path):
-    bad = tmp_path / 'caps.yaml'
-    bad.write_text('robot_types: {t: {sensors: [{name: gps, provides: [F_Q(local)]}]}}\nrobots: {robot_blind: t}\n')
-    inline = {name: value for name, value in files.items() if name != 'capability_file'}
-    cases = [('robot_blind', {**files, 'capability_file': str(bad)}, 'parameter capability_file:'),
-             ('robot_blind', {**inline, 'capabilities': bad.read_text()}, 'parameter capabilities: robot_types.t'),
-             ('robot_blind', {**files, 'capabilities': bad.read_text()},
-              'parameter capability_file / capabilities: give exactly one of them (got both)'),
-             ('robot_nobody', files, "robot 'robot_nobody' is not in the capability file's robots"),
-             (LEADER, {**files, 'task': 'teleport'}, "parameter task: unknown task 'teleport'"),
-             (HELPER, files, "parameter team_task: required when task is 'none'"),
-             (LEADER, {**files, 'task': 'navigation', 'loss_probability': 1.5},
-              'parameter loss_probability: must be in [0, 1]'),
-             (LEADER, {**files, 'robot': HELPER, 'task': 'navigation'},
-              f"parameter robot: '{HELPER}' differs from the node's namespace /{LEADER}")]
-    for index, (robot, params, expected) in enumerate(cases):
-        process = session.start(AgentSpec('coalition_agents', 'schema_agent', name=f'bad_agent_{index}',
-                                          namespace=f'/{robot}', parameters=[params], required=False))
-        assert session.wait_for_exit(process.name, timeout=60.0) == 2
-        assert expected in process.log_path.read_text(), process.log_path.read_text()
-
-
 # --- execution: streamed information, re-forming ---------------------------------------------------
 
 NAV_LEADER, SPARE_A, SPARE_B = 'pusher_r2', 'localizer_l1', 'localizer_l2'

@@ -178,8 +178,9 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
 
 
 @pytest.mark.parametrize('executable, parameters, expected', [
-    ('schema_agent', {'task': 'navigation', 'max_speed': -1.0}, 'max_speed'),
-    ('schema_agent', {'task': 'navigation', 'stream_rate': 'often'}, 'stream_rate'),
+    # One case per executable; the other bad values are unit tests of the settings
+    # (test/unit/coalitions/test_coalition_settings.py, test_coalition_node_parameters.py).
+    ('schema_agent', {'task': 'navigation', 'max_speed': -1.0}, 'parameter max_speed: must be in (0, 5]'),
     ('schema_agent_host', {'robots': [LEADER, LEADER]}, 'parameter robots: names a robot twice'),
 ])
 def test_a_bad_start_parameter_stops_the_node_with_exit_code_2(session, config_dir, tmp_path, executable,

@@ -64,6 +64,7 @@ from rclpy.parameter import Parameter
 
 from collab_tools import qos
 from collab_tools.names import TeamNode, check_robot_name, join
+from collab_tools.core.settings import Setting, SettingsSchema
 from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
 
@@ -128,29 +129,37 @@ def _file_problem(path: str) -> str | None:
     return None if not path or Path(path).is_file() else f'no such file {path!r}'
 
 
+#: The host's own parameters (all read-only: they shape the process at start-up).
+HOST_SETTINGS = SettingsSchema(
+    Setting('robots', [''], 'robots whose schema_agent this process hosts (node <host namespace>/<robot>/schema_agent '
+            'each)', required=True, check=_robots_problem),
+    Setting('agent_parameters', '', "optional: one more ROS 2 parameter file for the hosted schema_agent nodes only, "
+            "read after the host's own parameter files (which the agents read too); '' = none", check=_file_problem),
+    Setting('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done', low=0.0, high=3600.0),
+    Setting('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag recorder) '
+            'before the agents start; 0 = do not wait', low=0.0, high=3600.0),
+    Setting('executor', 'single', "'single' (single-threaded executor) or 'multi' (one thread per agent)",
+            choices=('single', 'multi')),
+    Setting('work_slice', 0.01, "wall s: how long the agents' shared deferred work (reasoning, channel messages for "
+            'the agents) runs per executor cycle (executor single)', low=0.0, low_open=True, high=1.0),
+    Setting('share_solution_spaces', True, 'one solution-space cache for the hosted agents (robots of equal '
+            'capabilities reuse generated spaces)'),
+)
+
+
 class AgentHost(Node):
     def __init__(self, argv: list[str] | None = None):
         super().__init__('schema_agent_host')
         self.params = NodeParameters(self)
         self.names = TeamNode(self, self.params)
-        declare = self.params.declare
-        self.robots = declare('robots', [''], 'robots whose schema_agent this process hosts (node '
-                              '<host namespace>/<robot>/schema_agent each)', required=True, check=_robots_problem)
-        self.parameter_file = declare('agent_parameters', '', "optional: one more ROS 2 parameter file for the hosted "
-                                      "schema_agent nodes only, read after the host's own parameter files (which "
-                                      "the agents read too); '' = none", check=_file_problem)
-        self.linger = declare('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done',
-                              low=0.0, high=3600.0)
-        self.wait_for_recorder = declare('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent '
-                                         'channel (the bag recorder) before the agents start; 0 = do not wait',
-                                         low=0.0, high=3600.0)
-        self.executor_kind = declare('executor', 'single', "'single' (single-threaded executor) or 'multi' "
-                                     '(one thread per agent)', choices=('single', 'multi'))
-        work_slice = declare('work_slice', 0.01, "wall s: how long the agents' shared deferred work (reasoning, "
-                             'channel messages for the agents) runs per executor cycle (executor single)',
-                             low=0.0, low_open=True, high=1.0)
-        self.share_solution_spaces = declare('share_solution_spaces', True, 'one solution-space cache for the '
-                                             'hosted agents (robots of equal capabilities reuse generated spaces)')
+        values = self.params.declare_schema(HOST_SETTINGS)
+        self.robots = values['robots']
+        self.parameter_file = values['agent_parameters']
+        self.linger = values['linger']
+        self.wait_for_recorder = values['wait_for_recorder']
+        self.executor_kind = values['executor']
+        work_slice = values['work_slice']
+        self.share_solution_spaces = values['share_solution_spaces']
         self.argv = list(sys.argv if argv is None else argv)
         self.work: CooperativeWork | None = None
         if self.executor_kind == 'single':  # threads: each agent keeps its own queue

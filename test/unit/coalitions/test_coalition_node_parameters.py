@@ -3,7 +3,7 @@
 import pytest
 
 from collab_tools.node_support import ConfigurationError
-from coalition_agents.agent_host import forwarded_parameter_files, forwarded_remappings
+from coalition_agents.agent_host import HOST_SETTINGS, forwarded_parameter_files, forwarded_remappings
 from coalition_agents.core.settings import AGENT_SETTINGS, DYNAMIC, link_model, load_files, retry_policy
 
 
@@ -26,6 +26,23 @@ def test_the_host_forwards_its_parameter_files_to_its_agents():
     assert forwarded_parameter_files(argv) == ['--params-file', '/run/params/host.0.yaml',
                                                '--params-file', '/run/params/host.1.yaml']
     assert forwarded_parameter_files(['schema_agent_host', '--params-file', 'x.yaml']) == []  # not a ROS argument
+
+
+@pytest.mark.parametrize('values, message', [
+    ({'robots': ['robot_1', 'robot_1']}, "parameter robots: names a robot twice (got ['robot_1', 'robot_1'])"),
+    ({'robots': ['1robot']}, 'parameter robots: must be a ROS name token'),
+    ({}, 'parameter robots: required'),
+    ({'robots': ['a'], 'agent_parameters': '/nowhere/agents.yaml'},
+     "parameter agent_parameters: no such file '/nowhere/agents.yaml'"),
+    ({'robots': ['a'], 'executor': 'many'}, 'parameter executor: must be one of single, multi'),
+    ({'robots': ['a'], 'work_slice': 0.0}, 'parameter work_slice: must be in (0, 1]'),
+])
+def test_bad_host_parameters_name_the_parameter(values, message):
+    """The schema_agent_host's start values (one integration case proves the exit code 2)."""
+    with pytest.raises(ConfigurationError) as caught:
+        HOST_SETTINGS.validate(values)
+    assert str(caught.value).startswith(message), caught.value
+    assert HOST_SETTINGS.validate({'robots': ['a', 'b']})['executor'] == 'single'
 
 
 def file_values(config_dir, **changes):
