@@ -36,38 +36,53 @@ ES, EPS, PS, RPS, MS, CS; costs (Sec. V-A)   schemas (SchemaKind, SensorSchema, 
 A robot's capabilities                       capabilities (RobotCapabilities,
                                              load_capability_file, capability_file_from_text)
 Tasks; Table II; Fig. 4/10; Fig. 8           tasks (Task, load_tasks); config/coalitions/tasks.yaml
-Sec. IV-C solution space, and-or tree, tOR   solution_space (RequirementNode = tOR, SchemaNode)
+Sec. IV-C solution space, and-or tree, tOR   potential_solutions (RequirementNode = tOR,
+                                             SchemaNode, PotentialSolution, SolutionStep)
 Referent instantiation constraint (fn. 6)    schemas (Conversion.inputs_for), information
                                              (match_template, bind_to_ground), coalition
                                              (RobotReasoner.local_coalition_solutions)
-Generality Imposition, Lemma 4.2             solution_space (generality_imposition_allows,
+Generality Imposition, Lemma 4.2             solution_constraints (generality_imposition_allows,
                                              Constraints.generality_reading)
-Localness in Reasoning                       solution_space (localness_allows)
-External Communication                       solution_space (external_communication_allows)
+Localness in Reasoning                       solution_constraints (localness_allows)
+External Communication                       solution_constraints (external_communication_allows)
 Algorithm 1                                  solution_space (SolutionSpaceGenerator.expand)
 Potential solutions in non-descending cost   solution_space (SolutionSpace.iter_potential_solutions)
-Removal of dominated solutions (Sec. V-A-1)  solution_space (information_key)
+Removal of dominated solutions (Sec. V-A-1)  potential_solutions (information_key)
 Table III                                    SolutionSpaceGenerator.motor_schema_space('navigate',
                                              [F_G(local)]) for capabilities/table3_robot.yaml
-Def. 4.6-4.9 (local) coalition (solution)    coalition (LocalCoalitionSolution,
+Def. 4.6-4.9 (local) coalition (solution)    coalition_solution (LocalCoalitionSolution,
                                              CoalitionSolution, coalition_members)
-Coalition cost, footnote 14, Table V         coalition (coalition_cost)
+Coalition cost, footnote 14, Table V         coalition_solution (coalition_cost); across robots
+                                             agent_spaces (coalition_cost_from_offers)
 Footnote 9 (answering a request)             requests (request_variants)
 Footnote 10 (self-requests), addressing      requests (addressees)
+Offers (a helper's answer, its LCS)          coalition_solution (InformationOffer)
 Distinct Requests, Lemma 4.3                 requests (RequestLedger), coalition_search
 Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task, plan_reply,
                                              local_coalition_solutions, offer, coalition)
 Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
-Sec. V-A-2 / Fig. 7 fiducial FOV and range  geometric_sensing (GeometricSensing, FieldOfView,
-                                             configuration_blind = Table V's 'possible')
-Algorithm 2 (one robot, distributed)         agent (SchemaAgent, coalition_cost_from_offers);
-                                             the schema_agent node drives it
+Algorithm 2 (one robot, distributed)         agent (SchemaAgent), agent_spaces (FeasibleCoalition,
+                                             reply spaces, incremental evaluation)
+Sec. V: an agent's life cycle (search time,  lifecycle (AgentLifecycle: start, settle rule,
+negotiate, set up, execute, re-form)         negotiation fallback, commitment, re-forming),
+                                             agent_state (AgentState, StatusReport); the
+                                             schema_agent node drives it
+Executing a coalition: information flows,    coalition_runner (CoalitionRunner: streaming,
+MSs (Sec. IV-C, V-A-5, Fig. 9/11)            motor-schema steps), information_values (evaluate),
+                                             value_fields (VALUE_FIELDS), motor_schema (GoToGoal,
+                                             BoxPush, MaintainRelativePosition)
+Re-forming when feasibility changes          coalition_execution (CoalitionExecution)
 Live sensor reports -> sensed instances      live_sensing (LiveSensing)
-Sec. V-B-4 / Fig. 9 message delay and loss   link_model (LinkModel, DelayDistribution)
-Agent channel messages                       channel_codec (ChannelCodec, ChannelMessage,
-                                             MessageKind)
-Request-and-wait negotiation, retries        reliable_channel (ReliableChannel, RetryPolicy,
-                                             CommitmentLedger)
+Fig. 7 sensing model (FOV, range)            geometric_sensing (GeometricSensing, FieldOfView)
+Fig. 7 / Fig. 9 simulated scenarios          sim_scenarios (column_placements, bridge_scenario)
+Sec. V-B-4 / Fig. 9 message delay and loss   transport.link_model (LinkModel, DelayDistribution)
+Agent channel messages                       transport.codec (ChannelCodec, ChannelMessage,
+                                             MessageKind), transport.batching (Outbox, batches)
+Request-and-wait negotiation, retries        transport.commitments (CommitmentLedger,
+                                             Negotiation), transport.retry (RetryPolicy),
+                                             transport.reliable_channel (ReliableChannel)
+Streamed information (Fig. 9 flows)          transport.information_stream (InformationStream)
+An agent's parameters (ours)                 settings (AGENT_SETTINGS, AgentSettings)
 Agents sharing one process (ours)            cooperative_work (CooperativeWork): bounded,
                                              round-robin reasoning steps
 ===========================================  ==================================================
@@ -110,10 +125,11 @@ from .capabilities import (
     CapabilityFile, RobotCapabilities, capability_file_from_dict, capability_file_from_text, load_capability_file,
 )
 from .tasks import Task, load_tasks, tasks_from_dict
-from .solution_space import (
-    Constraints, PotentialSolution, SolutionSpace, SolutionSpaceCache, SolutionSpaceGenerator,
-    SolutionStep, external_communication_allows, generality_imposition_allows, localness_allows,
+from .solution_constraints import (
+    Constraints, external_communication_allows, generality_imposition_allows, localness_allows,
 )
+from .potential_solutions import PotentialSolution, SolutionStep
+from .solution_space import SolutionSpace, SolutionSpaceCache, SolutionSpaceGenerator
 from .requests import InformationRequest, RequestLedger, addressees, request_variants, to_absolute, to_local
 from .coalition_solution import (
     CoalitionSolution, InformationOffer, LocalCoalitionSolution, cheapest_per_members, coalition_cost,
