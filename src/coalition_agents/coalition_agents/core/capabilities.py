@@ -102,7 +102,8 @@ def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: s
             raise ConfigError(f"{section.path_of('perceptual_schemas')}[{index}].name: '{conversion.name}' "
                               f"shadows a library RPS of the same name")
     motor = check_listed_names(section.items('motor_schemas', []))
-    return RobotCapabilities(name, tuple(sensors), own, frozenset(motor), section.string('description', '', allow_empty=True))
+    return RobotCapabilities(name, tuple(sensors), own, frozenset(motor),
+                             section.string('description', '', allow_empty=True))
 
 
 def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> CapabilityFile:

@@ -2,7 +2,7 @@
 
 The issue: the agent "re-forms when feasibility changes during execution". A coalition was chosen
 because every information source of its local coalition solution could be instantiated; during
-execution those sources are the helpers' streams (:mod:`.information_stream`) and the leader's
+execution those sources are the helpers' streams (:mod:`.transport.information_stream`) and the leader's
 own sensor readings. :class:`CoalitionExecution` watches exactly those sources:
 
 * each CS leaf needs a current value from its provider (the stream of the instance it offered;

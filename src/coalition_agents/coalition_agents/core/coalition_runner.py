@@ -135,7 +135,8 @@ class CoalitionRunner:
         else:
             box = by_label[('F_G', 'box')]
             pressed = by_label[('F_B', self.robot)]['pressed'] > 0.5
-            teammates = [v['pressed'] > 0.5 for (label, who), v in by_label.items() if label == 'F_B' and who != self.robot]
+            teammates = [v['pressed'] > 0.5 for (label, who), v in by_label.items()
+                         if label == 'F_B' and who != self.robot]
             command, state = self.push.command((me['x'], me['y']), heading, (box['x'], box['y']),
                                                (goal['x'], goal['y']), pressed, all(teammates) if teammates else None)
             step = MotorStep(command, state.phase, f'box {state.box_to_goal:.2f} m from the goal', state.box_to_goal)

@@ -1,6 +1,6 @@
 """Evaluating a local coalition solution on values: what its schemas compute while it runs (no ROS).
 
-A :class:`~.coalition.LocalCoalitionSolution` fixes which sensor, which teammate's offer and which
+A :class:`~.coalition_solution.LocalCoalitionSolution` fixes which sensor, which teammate's offer and which
 RPS provide each instance; while the coalition executes, information flows along that tree
 (Section IV-C: "each edge represents an information instance that constantly flows from the
 output of one node into the input of another"). :func:`evaluate` computes the values along it:
@@ -9,7 +9,7 @@ output of one node into the input of another"). :func:`evaluate` computes the va
 * a prior (dummy sensor): the a-priori value (``priors``);
 * a CS leaf: the latest value the providing teammate streamed (``streamed``);
 * an RPS: :data:`CONVERSIONS` by schema name, on the planar values of
-  :mod:`.information_stream`;
+  :mod:`.transport.information_stream`;
 * a reply's root CS passes its input on; an MS root yields its inputs' values.
 
 A value that cannot be computed now (no reading, stale stream, a conversion that needs a heading

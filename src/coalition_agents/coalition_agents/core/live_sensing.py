@@ -13,7 +13,7 @@ report; a new report of a sensor replaces its readings (a fiducial that stops se
 stops providing F_R for it).
 
 A report may also carry the readings' values (``values``: per detected name for a one-variable
-sensor, one value otherwise; the planar values of :mod:`.information_stream`): what a coalition
+sensor, one value otherwise; the planar values of :mod:`.value_fields`): what a coalition
 streams and its motor schema uses while it executes (:meth:`LiveSensing.value`). A fiducial
 marker gives the seen entity's orientation as well as its position (the bridge's
 ``FiducialDetection.yaw``): :func:`fiducial_values` keeps it as the F_R value's ``yaw``, so the

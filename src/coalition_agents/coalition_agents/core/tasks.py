@@ -69,7 +69,8 @@ class Task:
 
 
 def task_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> Task:
-    section = Fields(data, path, ('description', 'motor_schema', 'requires', 'prior', 'helper_motor_schema'), error=ConfigError)
+    section = Fields(data, path, ('description', 'motor_schema', 'requires', 'prior', 'helper_motor_schema'),
+                     error=ConfigError)
     requires = tuple(parse_field_instance(library, value, item_path) for item_path, value in section.items('requires'))
     if not requires:
         raise ConfigError(f"{section.path_of('requires')}: a task must require at least one information instance")
@@ -84,7 +85,8 @@ def task_from_dict(data: Any, library: SchemaLibrary, name: str, path: str) -> T
         prior.append(instance)
     helper = section.raw('helper_motor_schema', None)
     return Task(name, section.name('motor_schema'), requires, tuple(prior),
-                None if helper is None else section.name('helper_motor_schema'), section.string('description', '', allow_empty=True))
+                None if helper is None else section.name('helper_motor_schema'),
+                section.string('description', '', allow_empty=True))
 
 
 def tasks_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> dict[str, Task]:

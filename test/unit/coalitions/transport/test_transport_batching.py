@@ -1,4 +1,4 @@
-"""Aggregation of the agent channel (core.batching, no ROS): one batch per recipient per step,
+"""Aggregation of the agent channel (core.transport.batching, no ROS): one batch per recipient per step,
 piggybacked ACKs, negotiation messages first, a lost batch recovered by the retries, malformed
 batches and malformed messages inside one, and the adaptive retry timeout."""
 from __future__ import annotations

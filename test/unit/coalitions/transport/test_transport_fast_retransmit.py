@@ -1,4 +1,4 @@
-"""Re-sending only what is known lost (core.reliable_channel, no ROS): a busy receiver is never
+"""Re-sending only what is known lost (core.transport.reliable_channel, no ROS): a busy receiver is never
 re-flooded, a copy proven lost by a later copy's answer is re-sent at once, a tail loss falls back
 to the backed-off timeout, a peer is given up only after peer_timeout of silence, and the
 receiver's queue hands negotiation messages to the agent before queued offers."""

@@ -6,7 +6,7 @@ On the channel these are :class:`ChannelMessage` s of the kinds in :class:`Messa
 
 =================  ============================================================================
 REQUEST            an :class:`~..requests.InformationRequest` (requester = sender, label, chain)
-OFFER              an :class:`OfferSummary`: the wire form of an :class:`~..requests.InformationOffer`
+OFFER              an :class:`OfferSummary`: the wire form of an :class:`~..coalition_solution.InformationOffer`
 ACK                receipt of a REQUEST, OFFER or RELEASE (``in_reply_to``)
 COMMIT_REQUEST     join coalition ``coalition_id`` (members, cost, hold time)
 COMMIT_ACCEPT/     the answer to a COMMIT_REQUEST (it acknowledges it too)
@@ -14,7 +14,7 @@ COMMIT_REJECT
 RELEASE            the leader frees a helper from ``coalition_id``
 INFORMATION        a streamed value of an instance a helper provides to coalition ``coalition_id``
                    (``instance``, ``values``; not acknowledged: the latest value wins,
-                   :mod:`.information_stream`)
+                   :mod:`..value_fields`)
 =================  ============================================================================
 
 An offer on the wire carries the provided instance, the helper coalition's cost and members,
@@ -31,7 +31,7 @@ Labels are ``{'type': 'F_R', 'referents': ['X', 'robot_1']}`` and an INFORMATION
 Decoding checks everything a remote robot could get wrong -- an unknown kind, an unknown
 information type (against the agent's schema library), a malformed or unknown referent, a
 wrong arity, an unknown robot, a streamed value with an unknown, repeated, missing or
-non-finite field (:func:`~.information_stream.check_value_fields`) -- and raises
+non-finite field (:func:`~..value_fields.check_value_fields`) -- and raises
 :class:`~..errors.RequestError` (a ``ValueError``) whose message starts with the field path,
 e.g. ``message.label.referents[1]: ...`` or ``message.values.x: must be a finite number``.
 """
@@ -125,7 +125,7 @@ class ChannelMessage:
     cost: float = 0.0
     hold_seconds: float = 0.0
     reason: str = ''
-    #: INFORMATION: the instance's value, (field, number) pairs in order (information_stream.VALUE_FIELDS)
+    #: INFORMATION: the instance's value, (field, number) pairs in order (value_fields.VALUE_FIELDS)
     instance: InformationInstance | None = None
     values: tuple[tuple[str, float], ...] = ()
 
