@@ -1,7 +1,7 @@
 """The core behaviours' log lines (``port.log(level, text, throttle)``) on a node's rclpy logger.
 
-rclpy throttles per call site, and every core line reaches the logger through the one call below,
-so throttling is done here instead, per level and message kind (the text without its numbers):
+rclpy throttles per call site, and every core line of a severity reaches the logger through one call
+below, so throttling is done here instead, per level and message kind (the text without its numbers):
 a throttled warning of one kind never silences another kind.
 """
 from __future__ import annotations
@@ -24,4 +24,10 @@ class PortLogger:
             if now - self._last.get(key, -float('inf')) < throttle:
                 return
             self._last[key] = now
-        {'info': self._logger.info, 'warn': self._logger.warning, 'error': self._logger.error}[level](text)
+        # One call per severity: rclpy refuses a call site whose severity changes between calls.
+        if level == 'info':
+            self._logger.info(text)
+        elif level == 'warn':
+            self._logger.warning(text)
+        else:
+            self._logger.error(text)
