@@ -20,7 +20,7 @@ from rclpy.qos import ReliabilityPolicy
 from collab_tools.qos import COMMAND_OUT, SENSOR_IN
 from bridge_helpers import bridge_spec
 from role_engine.core.formation_task import load_formation_task
-from role_engine.robot_tracker_node import TRACKING_PARAMETERS
+from role_engine.core.node_settings import TRACKER_SETTINGS
 from role_helpers import TRACKER, engine_spec, player_process, player_spec, tracker_spec
 from test_role_parameters import PATIENT_ENGINE, assert_declared, set_one, wait_until
 
@@ -130,7 +130,7 @@ def test_tracker_publishes_every_robot_close_to_ground_truth_and_applies_its_thr
         assert yaw < (0.2 if robot.startswith('pioneer') else 0.5), (robot, yaw)   # a burger's marker is ~2 px
 
     # Parameters: the thresholds are dynamic, the rest read-only; out-of-range values are refused.
-    assert_declared(session, TRACKER, TRACKING_PARAMETERS, {'camera', 'team_namespace'})
+    assert_declared(session, TRACKER, [s.name for s in TRACKER_SETTINGS if s.dynamic], {'camera', 'team_namespace'})
     for name, value in (('min_area_px', 0), ('chroma_tolerance', 0.0), ('min_brightness', 800.0),
                         ('min_area_px', 2.5)):
         assert not set_one(session, TRACKER, name, value).successful, (name, value)
