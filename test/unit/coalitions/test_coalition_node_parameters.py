@@ -122,3 +122,25 @@ def test_boxpush_agents_read_only_tracked_config(config_dir):
                 if isinstance(value, str) and ('/' in value or value.endswith('.yaml')):
                     paths.append(value)
     assert paths and all(p.startswith('{config}/') for p in paths), paths
+
+
+def test_the_status_message_carries_the_typed_state_and_stamps():
+    from builtin_interfaces.msg import Time
+    from coalition_interfaces.msg import AgentStatus
+    from coalition_agents.core.agent_state import AgentState, StatusReport
+    from coalition_agents.schema_agent_node import status_message
+    report = StatusReport('robot_1', AgentState.COMMITTED, 'navigation', 'robot_1/3', 'robot_1', ('robot_1', 'robot_2'),
+                          16.0, search_started=5.0, coalition_found=5.4, found_cost=17.5, coalition_formed=6.25,
+                          potential_solution=2, reforms=1, requests_sent=4, offers_received=3, detail='formed')
+    msg = status_message(report, {'resent': 2, 'duplicates': 1, 'dropped': 5}, Time(sec=7))
+    assert msg.state == AgentStatus.COMMITTED == AgentState.COMMITTED and AgentState(msg.state).label == 'committed'
+    assert (msg.search_started.sec, msg.search_started.nanosec) == (5, 0)
+    assert (msg.coalition_found.sec, msg.coalition_found.nanosec) == (5, 400_000_000)
+    assert (msg.coalition_formed.sec, msg.coalition_formed.nanosec) == (6, 250_000_000)
+    assert (msg.task_finished.sec, msg.task_finished.nanosec) == (0, 0)  # not yet
+    assert (msg.found_cost, msg.potential_solution, msg.reforms, msg.retries, msg.duplicates, msg.dropped) == \
+        (17.5, 2, 1, 2, 1, 5)
+    assert msg.goal_distance != msg.goal_distance  # NaN: not executing
+    assert list(msg.members) == ['robot_1', 'robot_2'] and msg.header.stamp.sec == 7
+    # Every state the agents use is a message constant with the same value.
+    assert {s.name: int(s) for s in AgentState} == {s.name: getattr(AgentStatus, s.name) for s in AgentState}
