@@ -51,7 +51,8 @@ class Option:
         return self.flag.lstrip('-').replace('-', '_')
 
     def add_to(self, parser) -> None:
-        keywords = {'help': self.help, 'default': self.default}
+        # argparse formats help text: a literal '%' ("20 % loss") must be doubled.
+        keywords = {'help': self.help.replace('%', '%%'), 'default': self.default}
         for key in ('type', 'choices', 'nargs', 'metavar', 'action'):
             value = getattr(self, key)
             if value is not None:

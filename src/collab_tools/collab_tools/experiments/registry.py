@@ -15,9 +15,7 @@ def all_experiments() -> dict[str, Experiment]:
     """Every experiment by name; a name listed twice is a programming error."""
     found: dict[str, Experiment] = {}
     for package in EXPERIMENT_PACKAGES:
-        # TRANSITION (issue 12): a package not yet moved to experiments/ is skipped; removed when all are.
-        module = import_module(f'{package}.experiments')
-        for experiment in getattr(module, 'EXPERIMENTS', ()):
+        for experiment in import_module(f'{package}.experiments').EXPERIMENTS:
             if experiment.name in found:
                 raise RuntimeError(f'experiment {experiment.name} is listed twice')
             found[experiment.name] = experiment
