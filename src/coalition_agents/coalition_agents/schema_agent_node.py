@@ -45,6 +45,7 @@ from collab_tools import qos
 from collab_tools.names import RobotNode
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
+from collab_tools.port_logging import PortLogger
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, Vector3
 from rclpy.node import Node
 from rclpy.task import Future
@@ -90,6 +91,7 @@ class SchemaAgentNode(Node):
                  work: CooperativeWork | None = None):
         super().__init__('schema_agent', namespace=namespace, context=context, cli_args=cli_args,
                          use_global_arguments=cli_args is None, parameter_overrides=parameter_overrides)
+        self._port_logger = PortLogger(self.get_logger())  # the life cycle's log lines
         self.params = NodeParameters(self)
         self.names = RobotNode(self, self.params)
         self.robot = self.names.robot
@@ -186,13 +188,7 @@ class SchemaAgentNode(Node):
             self.cmd_pub.publish(Twist(linear=Vector3(x=velocity.linear), angular=Vector3(z=velocity.angular)))
 
     def log(self, level: str, text: str) -> None:
-        # One call per severity: rclpy keys a logger's severity by the calling line.
-        if level == 'error':
-            self.get_logger().error(text)
-        elif level == 'warning':
-            self.get_logger().warning(text)
-        else:
-            self.get_logger().info(text)
+        self._port_logger.log(level, text)
 
     def finish(self) -> None:
         if not self.finished.done():

@@ -47,6 +47,7 @@ from collab_tools import qos
 from collab_tools.names import TeamNode
 from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
+from collab_tools.port_logging import PortLogger
 from collab_tools.top_camera import TopCamera
 
 from .core.engine import CameraView, RoleEngine as EngineBehaviour, RoundOutcome
@@ -56,7 +57,6 @@ from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tu
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
 from .core.tuning import EngineTuning
-from .port_logging import PortLogger
 from .role_messages import occupancy_grid_msg, process_role_msg, shared_role, team_msg
 
 

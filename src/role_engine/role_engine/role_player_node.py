@@ -43,12 +43,12 @@ from collab_tools import qos
 from collab_tools.names import RobotNode
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
+from collab_tools.port_logging import PortLogger
 
 from .core.errors import RoleEngineError
 from .core.node_settings import PLAYER_SETTINGS, player_settings_file, player_tuning_schema, team_member, tuned
 from .core.player import PublishedRole, RolePlayer as PlayerBehaviour, RoundAssignment
 from .core.tuning import PlayerTuning
-from .port_logging import PortLogger
 from .role_messages import environment_of, planar_pose, process_role_msg, shared_role, team_of
 
 #: s (ROS time) without a tracked pose after which a playing robot is stopped (the camera runs at ~10 Hz).

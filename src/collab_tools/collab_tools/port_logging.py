@@ -1,8 +1,9 @@
-"""The core behaviours' log lines (``port.log(level, text, throttle)``) on a node's rclpy logger.
+"""A core behaviour's log lines (``port.log(level, text, throttle)``) on a node's rclpy logger.
 
-rclpy throttles per call site, and every core line of a severity reaches the logger through one call
-below, so throttling is done here instead, per level and message kind (the text without its numbers):
-a throttled warning of one kind never silences another kind.
+Cores log through their port with a level name (info, warn/warning, error). rclpy keys a logger's
+severity and throttling by the calling line and refuses a line whose severity changes, so each
+severity has its own call below, and throttling is done here, per level and message kind (the text
+without its numbers): a throttled warning of one kind never silences another kind.
 """
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ _NUMBERS = re.compile(r'[0-9.]+')
 
 
 class PortLogger:
+    """``PortLogger(node.get_logger()).log`` is a port's ``log``."""
+
     def __init__(self, logger):
         self._logger = logger
         self._last: dict[tuple[str, str], float] = {}
@@ -27,7 +30,7 @@ class PortLogger:
         # One call per severity: rclpy refuses a call site whose severity changes between calls.
         if level == 'info':
             self._logger.info(text)
-        elif level == 'warn':
+        elif level in ('warn', 'warning'):
             self._logger.warning(text)
         else:
             self._logger.error(text)
