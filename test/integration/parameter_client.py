@@ -61,10 +61,16 @@ def another_value(value):
     return list(value) + [list(value)[0]]
 
 
-def check_parameter_contract(session, node: str, dynamic: set[str]) -> dict:
-    """The node's parameters are described and typed; exactly ``dynamic`` may change; every read-only
-    one is refused as read-only and nothing refused changes a value. Returns the descriptors."""
+def check_parameter_contract(session, node: str, dynamic, read_only=None, *, refuse_negative: bool = False) -> dict:
+    """The contract every node keeps; returns the descriptors.
+
+    Each parameter is described and typed; exactly ``dynamic`` may change (and ``read_only`` is the
+    rest, when given); every read-only one is refused as read-only; a dynamic one refuses a value of
+    the wrong type (a number or flag given a string; and a negative number with ``refuse_negative``); nothing refused changes a value.
+    """
     found = descriptors(session, node)
+    if read_only is not None:
+        assert set(found) == set(dynamic) | set(read_only), f'{node}: declared {sorted(found)}'
     assert {name for name, d in found.items() if not d.read_only} == set(dynamic)
     for name, descriptor in found.items():
         assert descriptor.description, f'{node} {name}: no description'
@@ -73,6 +79,12 @@ def check_parameter_contract(session, node: str, dynamic: set[str]) -> dict:
     for name in sorted(set(found) - set(dynamic)):
         result = set_one(session, node, name, another_value(current[name]))
         assert not result.successful and 'read-only' in result.reason, (node, name, result.reason)
+    for name in sorted(name for name in dynamic if not isinstance(current[name], str)):
+        result = set_one(session, node, name, 'not a number')
+        assert not result.successful and 'type' in result.reason.lower(), (node, name, result.reason)
+        if refuse_negative:
+            result = set_one(session, node, name, -1 if isinstance(current[name], int) else -1.0)
+            assert not result.successful, f'{node}: {name} = -1 was accepted'
     assert get_values(session, node, sorted(found)) == current
     return found
 

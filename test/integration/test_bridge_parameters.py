@@ -8,13 +8,14 @@ import time
 
 import pytest
 from bridge_interfaces.msg import SimulationStatus
-from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType
-from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import Image
 from tf2_msgs.msg import TFMessage
 
 from bridge_helpers import bridge_spec, collect, set_paused, settle, stamp_seconds, step
+from parameter_client import get_value, set_one
 
 NODE = '/pybullet_bridge'
 
@@ -27,16 +28,7 @@ def bridge(session, config_dir):
 
 
 def set_parameter(session, name, value, type_=None):
-    parameter = Parameter(name, type_, value) if type_ is not None else Parameter(name, value=value)
-    response = session.call_service(f'{NODE}/set_parameters', 'rcl_interfaces/srv/SetParameters',
-                                    SetParameters.Request(parameters=[parameter.to_parameter_msg()]))
-    return response.results[0]
-
-
-def get_value(session, name):
-    response = session.call_service(f'{NODE}/get_parameters', 'rcl_interfaces/srv/GetParameters',
-                                    GetParameters.Request(names=[name]))
-    return Parameter.from_parameter_msg(ParameterMsg(name=name, value=response.values[0])).value
+    return set_one(session, NODE, name, value, type_)
 
 
 def test_descriptors_show_type_range_and_read_only(bridge):
@@ -65,11 +57,11 @@ def test_descriptors_show_type_range_and_read_only(bridge):
     ('use_sim_time', True, None, 'clock source'),
 ])
 def test_refused_sets_say_why_and_change_nothing(bridge, name, value, type_, reason):
-    before = get_value(bridge, name)
+    before = get_value(bridge, NODE, name)
     result = set_parameter(bridge, name, value, type_)
     assert not result.successful
     assert reason in result.reason
-    assert get_value(bridge, name) == before
+    assert get_value(bridge, NODE, name) == before
 
 
 def test_publish_camera_stops_and_restarts_the_camera(bridge, ros_node):
@@ -81,7 +73,7 @@ def test_publish_camera_stops_and_restarts_the_camera(bridge, ros_node):
     count = len(images)
     assert step(bridge, 96).success                       # 0.4 s: four frames if it still rendered
     assert len(settle(images, at_least=count + 1, timeout=1.0)) == count, 'the camera published while off'
-    assert get_value(bridge, 'publish_camera') is False
+    assert get_value(bridge, NODE, 'publish_camera') is False
 
     assert set_parameter(bridge, 'publish_camera', True).successful
     assert step(bridge, 24).success

@@ -13,13 +13,12 @@ import pytest
 import yaml
 from coalition_interfaces.msg import AgentMessageBatch, AgentStatus
 from geometry_msgs.msg import Twist
-from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
-from rclpy.parameter import Parameter, parameter_value_to_python
 from rosgraph_msgs.msg import Clock
 
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import SENSOR_IN
 from bridge_helpers import bridge_spec
+from parameter_client import descriptors, get_value, set_one
 from coalition_agents.transport.agent_channel import CHANNEL_QOS
 from coalition_agents.core.settings import AGENT_SETTINGS, DYNAMIC
 from coalition_agents.core.sim_scenarios import agent_parameter_file
@@ -28,7 +27,6 @@ LEADER, HELPER, BYSTANDER = 'robot_blind', 'robot_helper', 'robot_bystander'
 AGENT = f'/{LEADER}/schema_agent'
 STATUS = 'coalition_interfaces/msg/AgentStatus'
 OWN = {'robot', 'team_namespace'}  # RobotNode's (read-only)
-ROS_OWN = {'use_sim_time', 'start_type_description_service'}  # rclpy's, not the node's
 
 
 def files(config_dir):
@@ -36,26 +34,6 @@ def files(config_dir):
     return {'capability_file': str(coalitions / 'capabilities' / 'coalition_three_robots.yaml'),
             'schemas_file': str(coalitions / 'schemas.yaml'), 'costs_file': str(coalitions / 'costs.yaml'),
             'tasks_file': str(coalitions / 'tasks.yaml')}
-
-
-def set_one(session, node, name, value):
-    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
-    (result,) = session.call_service(f'{node}/set_parameters', 'rcl_interfaces/srv/SetParameters', request).results
-    return result
-
-
-def get_value(session, node, name):
-    response = session.call_service(f'{node}/get_parameters', 'rcl_interfaces/srv/GetParameters',
-                                    GetParameters.Request(names=[name]))
-    return parameter_value_to_python(response.values[0])
-
-
-def descriptors(session, node):
-    names = session.call_service(f'{node}/list_parameters', 'rcl_interfaces/srv/ListParameters',
-                                 ListParameters.Request()).result.names
-    response = session.call_service(f'{node}/describe_parameters', 'rcl_interfaces/srv/DescribeParameters',
-                                    DescribeParameters.Request(names=list(names)))
-    return {d.name: d for d in response.descriptors if d.name not in ROS_OWN}
 
 
 class SimWindow:

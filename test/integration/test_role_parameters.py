@@ -18,17 +18,15 @@ import time
 
 import pytest
 from geometry_msgs.msg import Twist
-from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
-from rclpy.parameter import Parameter, parameter_value_to_python
 from role_interfaces.msg import ProcessRole
 
 from collab_tools.qos import RELIABLE, SENSOR_IN
 from bridge_helpers import bridge_spec
+from parameter_client import check_parameter_contract, descriptors, get_values, set_one
 from role_engine.core.formation_task import load_formation_task
 from role_engine.core.node_settings import ENGINE_TUNING, PLAYER_TUNING
 from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec, tracker_spec
 
-ROS_OWN = {'use_sim_time', 'start_type_description_service'}   # rclpy's, not the node's
 ENGINE_READ_ONLY = {'settings_file', 'camera', 'exit_when_done', 'team_namespace'}
 PLAYER_READ_ONLY = {'settings_file', 'robot', 'team_namespace'}   # no camera: it follows tracked_pose
 #: The engine never excludes a robot: the player test watches one player alone.
@@ -39,39 +37,6 @@ PATIENT_ENGINE = {'silence_timeout': 1000.0, 'problem_detection.stuck_time': 100
 @pytest.fixture
 def settings_file(config_dir):
     return config_dir / 'roles' / 'formation_demo.yaml'
-
-
-def set_one(session, node, name, value):
-    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
-    (result,) = session.call_service(f'{node}/set_parameters', 'rcl_interfaces/srv/SetParameters', request).results
-    return result
-
-
-def get_values(session, node, names):
-    response = session.call_service(f'{node}/get_parameters', 'rcl_interfaces/srv/GetParameters',
-                                    GetParameters.Request(names=list(names)))
-    return {name: parameter_value_to_python(value) for name, value in zip(names, response.values)}
-
-
-def descriptors(session, node):
-    names = session.call_service(f'{node}/list_parameters', 'rcl_interfaces/srv/ListParameters',
-                                 ListParameters.Request()).result.names
-    response = session.call_service(f'{node}/describe_parameters', 'rcl_interfaces/srv/DescribeParameters',
-                                    DescribeParameters.Request(names=list(names)))
-    return {d.name: d for d in response.descriptors if d.name not in ROS_OWN}
-
-
-def assert_declared(session, node, dynamic, read_only):
-    found = descriptors(session, node)
-    assert set(found) == set(dynamic) | read_only
-    assert {name for name, d in found.items() if not d.read_only} == set(dynamic)
-    for name, d in found.items():
-        assert d.description, name
-    for name in read_only:                   # each read-only one is refused, with the reason
-        value = get_values(session, node, [name])[name]
-        result = set_one(session, node, name, value)
-        assert not result.successful and 'read-only' in result.reason, (name, result.reason)
-    return found
 
 
 def start_stamp(msg):
@@ -90,7 +55,7 @@ def test_role_engine_applies_its_tuning_and_refuses_the_rest(session, settings_f
     task = load_formation_task(settings_file)
     session.start(engine_spec(settings_file))
     session.wait_for_nodes([ENGINE], timeout=60.0)
-    found = assert_declared(session, ENGINE, ENGINE_TUNING, ENGINE_READ_ONLY)
+    found = check_parameter_contract(session, ENGINE, ENGINE_TUNING, ENGINE_READ_ONLY)
     assert found['min_robots'].integer_range[0].from_value == 1
     assert found['silence_timeout'].floating_point_range[0].from_value == 0.0
     for name, value, reason in (('start_delay', 'soon', None), ('min_robots', 2.5, None),
@@ -190,7 +155,7 @@ def test_role_player_applies_its_tuning_and_refuses_the_rest(session, settings_f
     session.wait_for_nodes([node], timeout=60.0)
     # The tuning is declared once the team description (its robot's limits) has come from the engine.
     wait_until(lambda: 'replan_period' in descriptors(session, node), 60, 'the tuning parameters')
-    found = assert_declared(session, node, PLAYER_TUNING, PLAYER_READ_ONLY)
+    found = check_parameter_contract(session, node, PLAYER_TUNING, PLAYER_READ_ONLY)
     assert found['max_linear_velocity'].floating_point_range[0].to_value == pytest.approx(1.2)   # pioneer limit
     for name, value, reason in (('replan_period', 'fast', None), ('gp.max_iterations', 2.5, None),
                                 ('max_linear_velocity', 5.0, None), ('speed_fraction', 1.5, None),

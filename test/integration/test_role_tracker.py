@@ -22,7 +22,8 @@ from bridge_helpers import bridge_spec
 from role_engine.core.formation_task import load_formation_task
 from role_engine.core.node_settings import TRACKER_SETTINGS
 from role_helpers import TRACKER, engine_spec, player_process, player_spec, tracker_spec
-from test_role_parameters import PATIENT_ENGINE, assert_declared, set_one, wait_until
+from parameter_client import check_parameter_contract, set_one
+from test_role_parameters import PATIENT_ENGINE, wait_until
 
 ROBOTS = ('pioneer_1', 'pioneer_2', 'burger_1', 'burger_2')
 #: Position error allowed [m]: about a camera pixel (5.4 m / 320 px) plus the interpolation of the truth.
@@ -130,7 +131,7 @@ def test_tracker_publishes_every_robot_close_to_ground_truth_and_applies_its_thr
         assert yaw < (0.2 if robot.startswith('pioneer') else 0.5), (robot, yaw)   # a burger's marker is ~2 px
 
     # Parameters: the thresholds are dynamic, the rest read-only; out-of-range values are refused.
-    assert_declared(session, TRACKER, [s.name for s in TRACKER_SETTINGS if s.dynamic], {'camera', 'team_namespace'})
+    check_parameter_contract(session, TRACKER, [s.name for s in TRACKER_SETTINGS if s.dynamic], {'camera', 'team_namespace'})
     for name, value in (('min_area_px', 0), ('chroma_tolerance', 0.0), ('min_brightness', 800.0),
                         ('min_area_px', 2.5)):
         assert not set_one(session, TRACKER, name, value).successful, (name, value)

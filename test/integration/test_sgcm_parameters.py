@@ -8,15 +8,13 @@ import time
 
 import pytest
 import yaml
-from rcl_interfaces.msg import ParameterType
-from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
-from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.time import Time
 from sgcm_interfaces.msg import FollowerReport, Guidance, Move
 
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import RELIABLE
 from bridge_helpers import bridge_spec, set_paused, wait_for_subscriber
+from parameter_client import check_parameter_contract, get_values, set_one, set_parameters
 from sgcm.core.rearrangement import RearrangementModel
 from sgcm.core.scenario_builder import build_scenario
 from sgcm.core.task_config import load_cases, load_task
@@ -26,7 +24,6 @@ LEADER = '/leader_arm/leader_planner'
 FOLLOWER = '/follower_arm/follower_executor'
 LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time'}
 FOLLOWER_DYNAMIC = {'settle_time'}
-ROS_OWN = {'use_sim_time'}  # rclpy's, not the node's
 
 
 def leader_spec(task_file, **parameters) -> NodeSpec:
@@ -51,64 +48,6 @@ def start_bridge(session, tmp_path, task_file, config_dir, case_name='case_8', *
     scenario.write_text(yaml.safe_dump(build_scenario(task, case, execution_failures=False)))
     session.start(bridge_spec(scenario, ground_truth_rate=5.0, **parameters))
     return task, case
-
-
-def set_parameters(session, node, **values):
-    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()
-                                                for name, value in values.items()])
-    return session.call_service(f'{node}/set_parameters', 'rcl_interfaces/srv/SetParameters', request).results
-
-
-def set_one(session, node, name, value):
-    (result,) = set_parameters(session, node, **{name: value})
-    return result
-
-
-def get_values(session, node, names):
-    response = session.call_service(f'{node}/get_parameters', 'rcl_interfaces/srv/GetParameters',
-                                    GetParameters.Request(names=list(names)))
-    return {name: parameter_value_to_python(value) for name, value in zip(names, response.values)}
-
-
-def descriptors(session, node):
-    names = session.call_service(f'{node}/list_parameters', 'rcl_interfaces/srv/ListParameters',
-                                 ListParameters.Request()).result.names
-    response = session.call_service(f'{node}/describe_parameters', 'rcl_interfaces/srv/DescribeParameters',
-                                    DescribeParameters.Request(names=list(names)))
-    return {d.name: d for d in response.descriptors if d.name not in ROS_OWN}
-
-
-def another_value(value):
-    """A different value of the same type (so a refusal cannot be a type error)."""
-    if isinstance(value, bool):
-        return not value
-    if isinstance(value, (int, float)):
-        return value + 1
-    if isinstance(value, str):
-        return value + '_x'
-    return list(value) + [list(value)[0]]
-
-
-def check_parameter_contract(session, node, dynamic):
-    """Descriptors, read-only refusals and type refusals; returns the descriptors."""
-    found = descriptors(session, node)
-    assert {name for name, d in found.items() if not d.read_only} == dynamic
-    for name, descriptor in found.items():
-        assert descriptor.description, f'{node} {name}: no description'
-        assert descriptor.type != ParameterType.PARAMETER_NOT_SET
-    current = get_values(session, node, sorted(found))
-    for name in sorted(set(found) - dynamic):
-        result = set_one(session, node, name, another_value(current[name]))
-        assert not result.successful, f'{node}: read-only {name} was accepted'
-        assert 'read-only' in result.reason, result.reason
-    for name in sorted(dynamic):
-        result = set_one(session, node, name, 'not a number')
-        assert not result.successful and 'type' in result.reason.lower(), (name, result.reason)
-        result = set_one(session, node, name, -1 if isinstance(current[name], int) else -1.0)
-        assert not result.successful, f'{node}: {name} = -1 was accepted'
-    # Nothing refused changed anything.
-    assert get_values(session, node, sorted(found)) == current
-    return found
 
 
 def stamp_seconds(msg) -> float:
@@ -139,7 +78,7 @@ def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, 
     session.wait_for_nodes([LEADER], 60.0)
     guidance = []
     session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, RELIABLE)
-    found = check_parameter_contract(session, LEADER, LEADER_DYNAMIC)
+    found = check_parameter_contract(session, LEADER, LEADER_DYNAMIC, refuse_negative=True)
     assert (found['horizon'].integer_range[0].from_value, found['horizon'].integer_range[0].to_value) == (0, 6)
     assert not set_one(session, LEADER, 'horizon', 7).successful
     assert task.horizon == 2 and task.round_limit > 2
@@ -177,7 +116,7 @@ def test_follower_parameters_are_applied_or_refused(session, tmp_path, task_file
     reports = []
     node.create_subscription(FollowerReport, '/sgcm/follower_report', reports.append, RELIABLE)
     publisher = node.create_publisher(Guidance, '/sgcm/guidance', RELIABLE)
-    check_parameter_contract(session, FOLLOWER, FOLLOWER_DYNAMIC)
+    check_parameter_contract(session, FOLLOWER, FOLLOWER_DYNAMIC, refuse_negative=True)
     assert get_values(session, FOLLOWER, ['settle_time']) == {'settle_time': 0.5}
     assert set_one(session, FOLLOWER, 'settle_time', 30.0).successful
     wait_for_subscriber(publisher)

@@ -1,7 +1,7 @@
 """Make ``role_engine`` importable from the source tree when the workspace is not built or sourced.
 
-The role engine core reads its YAML files with the bridge's field validators
-(``pybullet_bridge.core.fields``), so the bridge's source tree is added the same way.
+The role engine core reads its YAML files with the shared field readers (``collab_tools.core.fields``)
+and map images with the bridge's pure occupancy-map reader, so both source trees are added the same way.
 """
 import importlib.util
 import sys
@@ -14,5 +14,5 @@ if importlib.util.find_spec('role_engine') is None:
     sys.path.insert(0, str(PACKAGE_ROOT))
 if importlib.util.find_spec('pybullet_bridge') is None:
     sys.path.insert(0, str(SRC / 'pybullet_bridge'))
-if importlib.util.find_spec('collab_tools') is None:  # the shared camera model
+if importlib.util.find_spec('collab_tools') is None:  # the shared field readers and camera model
     sys.path.insert(0, str(SRC / 'collab_tools'))

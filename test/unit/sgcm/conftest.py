@@ -1,7 +1,7 @@
 """Make ``sgcm`` importable from the source tree when the workspace is not built or sourced.
 
-The SGCM core reads its YAML files with the bridge's field validators
-(``pybullet_bridge.core.fields``), so the bridge's source tree is added the same way.
+The SGCM core reads its YAML files with the shared field readers (``collab_tools.core.fields``) and
+the tests build scenes with the bridge, so both source trees are added the same way.
 """
 import importlib.util
 import sys
@@ -17,7 +17,7 @@ if importlib.util.find_spec('sgcm') is None:
     sys.path.insert(0, str(SRC / 'sgcm'))
 if importlib.util.find_spec('pybullet_bridge') is None:
     sys.path.insert(0, str(SRC / 'pybullet_bridge'))
-if importlib.util.find_spec('collab_tools') is None:  # the shared camera model
+if importlib.util.find_spec('collab_tools') is None:  # the shared field readers and camera model
     sys.path.insert(0, str(SRC / 'collab_tools'))
 
 from sgcm.core.rearrangement import RearrangementModel  # noqa: E402  (after the path set-up above)
