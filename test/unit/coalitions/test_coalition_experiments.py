@@ -5,7 +5,7 @@ import pytest
 import yaml
 
 from collab_tools.experiments.api import ExperimentRequest, run_experiment
-from coalition_agents.benchmark import referent_library, run_benchmark
+from coalition_agents.experiments.benchmark import referent_library, run_benchmark
 from coalition_agents.core import ConfigError
 from coalition_agents.core.geometric_sensing import FieldOfView, GeometricSensing, Pose
 from coalition_agents.experiments import experiment_named

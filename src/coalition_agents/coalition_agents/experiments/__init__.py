@@ -17,7 +17,8 @@ Sec. V-A-5, Fig. 10/11 box pushing          coalition-boxpush       boxpush
 
 Shared by them: :mod:`.configuration` (config/coalitions/ and the Fig. 7 scenario file),
 :mod:`.sessions` (schema_agent nodes on the bridge through the orchestration library),
-:mod:`.coalition_bag` (statuses and channel traffic read back from a run's bag). Every module
+:mod:`.coalition_bag` (statuses and channel traffic read back from a run's bag).
+``scripts/bench coalition`` runs :mod:`.benchmark` (solution-space generation vs referents and robots). Every module
 has ``run(request: ExperimentRequest) -> ExperimentResult`` (collab_tools.experiments.api);
 this ``__init__`` imports nothing heavy, so listing the experiments stays fast.
 """

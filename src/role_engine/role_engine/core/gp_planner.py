@@ -16,7 +16,7 @@ the previous solution when re-planning: that is the warm start). The cost is
 Two formulations minimise the same cost with the same LM rules: ``'vectorised'`` (numpy,
 banded normal equations; :mod:`.gp_vectorised`) and ``'gtsam'`` (factor graph with
 ``WnoaMotionFactorPoint2`` and ``CustomFactor``; :mod:`.gp_gtsam`). ``scripts/bench gpmp``
-(:mod:`role_engine.benchmark`) times them on identical problems; the vectorised one is the
+(:mod:`role_engine.experiments.benchmark`) times them on identical problems; the vectorised one is the
 default because it is about 30x faster there (100 states, 200 x 200 map; the Python callbacks
 of the CustomFactors dominate the gtsam one) at the same final cost. The gtsam graph stays
 available for ISAM2.

@@ -16,6 +16,7 @@ problems), :mod:`.gp_sweep` (the environments x problems x sigma_obs sweep and i
 :mod:`.table_report` (breakdown tables and figures of Tables III/IV), :mod:`.collab_config`,
 :mod:`.collab_simulation` (the core-level simulation driving the nodes' RolePlayer),
 :mod:`.path_measures` (distances, contacts, jerk), :mod:`.formation_bag` (the recorded run).
+``scripts/bench gpmp`` runs :mod:`.benchmark` (with :mod:`.benchmark_core`).
 """
 from collab_tools.experiments.api import Experiment, Option
 

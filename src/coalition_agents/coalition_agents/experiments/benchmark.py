@@ -47,14 +47,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
-from .core import (
+from ..core import (
     CoalitionSearch, Costs, RobotCapabilities, SchemaLibrary, SolutionSpaceCache,
     SolutionSpaceGenerator, Task, addressees, capability_file_from_dict, library_from_dict,
     load_capability_file, request_variants,
 )
-from .core.errors import CoalitionError
-from .core.geometric_sensing import FieldOfView, GeometricSensing, Pose
-from .experiments.configuration import CoalitionConfig
+from ..core.errors import CoalitionError
+from ..core.geometric_sensing import FieldOfView, GeometricSensing, Pose
+from .configuration import CoalitionConfig
 
 Log = Callable[[str], None]
 

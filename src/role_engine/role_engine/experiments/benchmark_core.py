@@ -1,6 +1,6 @@
 """Timing of the role engine core: E-Map construction, A* queries and GRA (Hungarian).
 
-Run: ``python -m role_engine.benchmark_core [--maps DIR] [--repeats N]``. Prints median wall
+Run: ``python -m role_engine.experiments.benchmark_core [--maps DIR] [--repeats N]``. Prints median wall
 times; speed targets live here, not in the unit tests. Maps default to config/roles/maps
 of the workspace this file sits in (source tree layout).
 """

@@ -21,7 +21,7 @@
   ``role_player_cycle.cycle_ms_median`` is the median over all of them. What the node adds per
   cycle (message conversion, publishing) is not included.
 
-Run directly with ``python -m role_engine.benchmark [--config-dir DIR] [--out DIR]``.
+Run directly with ``python -m role_engine.experiments.benchmark [--config-dir DIR] [--out DIR]``.
 """
 from __future__ import annotations
 
@@ -40,19 +40,19 @@ from typing import Callable
 import numpy as np
 
 from .benchmark_core import median_ms
-from .experiments.collab_config import CollabScenario
-from .experiments.collab_simulation import initial_process_roles, scenario_team
-from .core.conflict import SharedRole
-from .core.environment import environment_from_scenario
-from .core.formation_task import load_formation_task, replan_process_role
-from .core.assignment import group_role_assignment
-from .core.astar import EMapPlanner
-from .core.emap import build_emap
-from .core.environment import RobotType, load_map_file
-from .core.errors import RoleEngineError
-from .core.gp_planner import FORMULATIONS, GPPlanner
-from .core.initial_paths import emap_trajectory, straight_line_trajectory
-from .experiments.config import CONFIG_FILE, BenchmarkProblem, ExperimentConfig, load_experiment_config
+from .collab_config import CollabScenario
+from .collab_simulation import initial_process_roles, scenario_team
+from ..core.conflict import SharedRole
+from ..core.environment import environment_from_scenario
+from ..core.formation_task import load_formation_task, replan_process_role
+from ..core.assignment import group_role_assignment
+from ..core.astar import EMapPlanner
+from ..core.emap import build_emap
+from ..core.environment import RobotType, load_map_file
+from ..core.errors import RoleEngineError
+from ..core.gp_planner import FORMULATIONS, GPPlanner
+from ..core.initial_paths import emap_trajectory, straight_line_trajectory
+from .config import CONFIG_FILE, BenchmarkProblem, ExperimentConfig, load_experiment_config
 
 Log = Callable[[str], None]
 
