@@ -12,6 +12,7 @@ Imports are read with ast, also those inside functions, so a late import does no
 from __future__ import annotations
 
 import ast
+import functools
 from collections import defaultdict
 from pathlib import Path
 
@@ -51,7 +52,8 @@ def module_name(path: Path) -> str:
 MODULES = {module_name(p): p for p in SOURCES}
 
 
-def _imported_names(path: Path, name: str) -> set[str]:
+@functools.cache
+def _imported_names(path: Path, name: str) -> frozenset[str]:
     """Absolute names of everything ``path`` imports (modules, or module.attribute for from-imports)."""
     package = name if path.name == '__init__.py' else name.rpartition('.')[0]
     found = set()
@@ -67,9 +69,10 @@ def _imported_names(path: Path, name: str) -> set[str]:
                 base = node.module or ''
             found.add(base)
             found.update(f'{base}.{alias.name}' for alias in node.names)
-    return found
+    return frozenset(found)
 
 
+@functools.cache  # the graph is read once per run, not once per parametrized check
 def _edges(with_parents: bool) -> dict[str, set[str]]:
     """Workspace module -> workspace modules and external top-level names it imports."""
     edges = defaultdict(set)
