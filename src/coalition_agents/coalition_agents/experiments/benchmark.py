@@ -295,12 +295,11 @@ def run_benchmark(config_dir: str | Path, out_dir: str | Path, log: Log = print,
 
 
 def plot_benchmark(results: dict, path: Path) -> None:
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8.5))
+    from collab_tools.experiments import plots
+
+    fig, axes = plots.figure(12, 8.5, rows=2, columns=2)
     by_referents = results['referents']
     if by_referents:
         n = [r['referents'] for r in by_referents]
@@ -343,9 +342,7 @@ def plot_benchmark(results: dict, path: Path) -> None:
         if ax.lines:
             ax.legend(fontsize=8)
     fig.suptitle('IQ-ASyMTRe solution-space generation (core, one process)')
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    plots.save(fig, path)
 
 
 __all__ = ['LAYOUTS', 'REFERENTS', 'ROBOTS', 'bench_referents', 'bench_robots', 'cluster_layout', 'column_layout',
