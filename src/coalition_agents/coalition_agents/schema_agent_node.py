@@ -19,7 +19,8 @@ life cycle to
   (``NamedValue[] values``);
 * ``coalition`` (coalition_interfaces/AgentStatus, LATCHED): its typed state, the coalition, its
   leader, members and cost and the stamps of its search; it reads the statuses of the robots in
-  ``exit_after`` at ``<team>/<teammate>/coalition``.
+  ``exit_after`` at ``<team>/<teammate>/coalition``. ``commitments`` lists every coalition it
+  serves at once (its own first) and what its schemas do for each (capability sharing).
 
 The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``; the robot is the
 last component of the namespace, :class:`collab_tools.names.RobotNode`). Per-robot names are
@@ -40,7 +41,7 @@ import sys
 from bridge_interfaces.msg import BumperState, FiducialDetections
 from bridge_interfaces.srv import SetSensorActive
 from builtin_interfaces.msg import Time
-from coalition_interfaces.msg import AgentStatus
+from coalition_interfaces.msg import AgentStatus, CoalitionCommitment
 from collab_tools import qos
 from collab_tools.names import RobotNode
 from collab_tools.node_support import ConfigurationError, run
@@ -258,7 +259,11 @@ def status_message(report: StatusReport, channel_stats: dict, header_stamp) -> A
                       potential_solution=report.potential_solution, reforms=report.reforms,
                       goal_distance=float(report.goal_distance), requests_sent=report.requests_sent,
                       offers_received=report.offers_received, retries=channel_stats['resent'],
-                      duplicates=channel_stats['duplicates'], dropped=channel_stats['dropped'], detail=report.detail)
+                      duplicates=channel_stats['duplicates'], dropped=channel_stats['dropped'], detail=report.detail,
+                      commitments=[CoalitionCommitment(coalition_id=held.coalition_id, leader=held.leader,
+                                                       members=list(held.members), cost=float(held.cost),
+                                                       since=stamp(held.since), uses=list(held.uses))
+                                   for held in report.commitments])
     msg.header.stamp = header_stamp
     return msg
 

@@ -59,7 +59,7 @@ def boxpush_bag(tmp_path):
                 leader=s[5], members=list(s[6]), cost=float(s[7]), search_started=not_yet(), coalition_found=not_yet(),
                 found_cost=0.0, coalition_formed=not_yet(), task_finished=not_yet(), potential_solution=0, reforms=0,
                 goal_distance=float('nan'), requests_sent=0, offers_received=0, retries=0, duplicates=0, dropped=0,
-                detail='')) for s in statuses]
+                detail='', commitments=[])) for s in statuses]
             rows += [(t, '/ground_truth/bodies', bodies_type, T[bodies_type](
                 header=header(t), bodies=[body(name, *xy) for name, xy in bodies.items()])) for t, bodies in poses]
             for t, topic, type_name, msg in sorted(rows, key=lambda r: r[0]):

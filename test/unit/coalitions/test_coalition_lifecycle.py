@@ -96,6 +96,9 @@ class Channel:
     def stream(self, receiver, coalition_id, instance, values):
         self.streamed.append((receiver, coalition_id, str(instance), dict(values)))
 
+    def admit_with(self, rule):
+        self.admission = rule
+
 
 @pytest.fixture
 def files(config_dir):

@@ -64,6 +64,8 @@ def test_the_robot_must_be_in_the_team(files):
     ({'task': 'navigation', 'exit_after': ['robot_nobody']}, LEADER,
      "parameter exit_after: 'robot_nobody' is not in the capability file's robots"),
     ({'task': 'navigation', 'search_tme': 3.0}, LEADER, 'parameter search_tme: unknown'),
+    ({'task': 'navigation', 'aimed_sensors': ['camera']}, LEADER,
+     "parameter aimed_sensors: 'camera' is not a sensor of robot_blind"),
 ])
 def test_bad_parameters_are_refused_with_their_name(files, changes, robot, expected):
     assert expected in refused({**files, **changes}, robot)

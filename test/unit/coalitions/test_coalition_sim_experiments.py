@@ -213,7 +213,7 @@ def coalition_bag(tmp_path):
         """AgentStatus's typed fields: zero stamps (not yet) unless given."""
         typed = {'search_started': 0.0, 'coalition_found': 0.0, 'found_cost': 0.0, 'coalition_formed': 0.0,
                  'task_finished': 0.0, 'potential_solution': 0, 'reforms': 0, 'goal_distance': float('nan'),
-                 **fields}
+                 'commitments': [], **fields}
         stamps = ('search_started', 'coalition_found', 'coalition_formed', 'task_finished')
         return {key: time(value) if key in stamps else value for key, value in typed.items()}
 

@@ -65,8 +65,12 @@ Algorithm 2 (one robot, distributed)         agent (SchemaAgent), agent_spaces (
                                              reply spaces, incremental evaluation)
 Sec. V: an agent's life cycle (search time,  lifecycle (AgentLifecycle: start, settle rule,
 negotiate, set up, execute, re-form)         negotiation fallback, commitment, re-forming),
-                                             agent_state (AgentState, StatusReport); the
-                                             schema_agent node drives it
+                                             agent_state (AgentState, StatusReport); its ports
+                                             coalition_ports (LifecyclePort, CoalitionChannel);
+                                             the schema_agent node drives it
+Capability sharing: a robot in several       coalition_sharing (Use, CoalitionPart, conflict,
+coalitions (fn. 1, 13, 14, 16, Sec. V-A-3)   solution_parts, team_sharing); coalition_serving
+                                             (Commitments: held coalitions, admission rule)
 Executing a coalition: information flows,    coalition_runner (CoalitionRunner: streaming,
 MSs (Sec. IV-C, V-A-5, Fig. 9/11)            motor-schema steps), information_values (evaluate),
                                              value_fields (VALUE_FIELDS), motor_schema (GoToGoal,
@@ -111,6 +115,10 @@ Choices where the paper is silent or ambiguous (each is documented where it is m
   label naming robots goes to those robots; a robot never relays a label it is not named in.
 * Coalition cost: a CS pair counts once, on the requester's side (footnote 14), and the task's
   helper MS is charged once per helper robot; this reproduces Table V's 16 and 17.5.
+* A robot may serve several coalitions at once (the paper: "the same robots can appear in
+  different coalitions"): the same reading and the same communicated information go to every
+  leader; it refuses only a coalition that needs its motor schema while another runs it, or an
+  aimed sensor on another referent (coalition_sharing). A leader keeps its own task meanwhile.
 """
 from .errors import CoalitionError, ConfigError, InformationError, RequestError, SearchError
 from .information import (

@@ -38,6 +38,21 @@ class AgentState(IntEnum):
 
 
 @dataclass(frozen=True)
+class HeldCoalition:
+    """One coalition a robot is committed to (AgentStatus ``commitments[]``): its own or one it
+    helps, and what this robot's schemas do for it (``uses``: :class:`~.coalition_sharing.Use`
+    texts, e.g. ``sensor:gps:F_G(robot_1)``, ``motor:maintain_relative_position:robot_3``)."""
+
+    coalition_id: str
+    leader: str
+    members: tuple[str, ...]
+    cost: float
+    uses: tuple[str, ...] = ()
+    #: when this robot committed to it (its own clock, s)
+    since: float = 0.0
+
+
+@dataclass(frozen=True)
 class StatusReport:
     """What an agent reports (``coalition_interfaces/AgentStatus`` without the channel counters):
     its typed state, its coalition and the stamps of its search (its own clock, s; None = not yet)."""
@@ -67,3 +82,5 @@ class StatusReport:
     offers_received: int = 0
     #: human-readable text only (what happened, why); never parsed
     detail: str = ''
+    #: every coalition it is committed to now: its own first (a leader), then those it helps
+    commitments: tuple[HeldCoalition, ...] = ()

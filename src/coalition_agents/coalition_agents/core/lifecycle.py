@@ -10,7 +10,8 @@ streaming). The schema_agent node implements both on ROS; unit tests use fakes.
 States (:class:`~.agent_state.AgentState`): a robot with a task goes IDLE -> SEARCHING ->
 NEGOTIATING -> COMMITTED (-> COMPLETED when it drives its task to the goal) or FAILED; a robot
 without one goes IDLE -> HELPING (first request) -> COMMITTED (a leader's commitment) -> IDLE
-(released).
+(released from every coalition it helps). Its state is its own task's: helping others never
+changes a leader's state (it keeps searching for its own coalition).
 
 * Start: once every teammate's agent listens on the channel (or after ``team_wait``) a robot with
   a task starts the search.
@@ -23,9 +24,12 @@ without one goes IDLE -> HELPING (first request) -> COMMITTED (a leader's commit
   non-descending cost; if one helper refuses or cannot be reached, the next. None left: FAILED
   (a driving leader searches again instead, robots free up when other tasks end).
 * Commitment: the leader keeps the sensors of its coalition active (and those of the answers it
-  gives itself, footnote 10). A helper accepts the first coalition that asks it (the channel's
-  commitment ledger: one at a time) and keeps the sensors it serves its leader with.
-* Execution (:class:`~.coalition_runner.CoalitionRunner`): helpers stream what they serve; a
+  gives itself, footnote 10). Any robot, a leader too, commits to every coalition its schemas can
+  serve at once and declines a conflicting one with the reason (capability sharing:
+  :class:`~.coalition_serving.Commitments`); its status lists them all (``commitments``). A leader
+  never drops its task for another's coalition; refusals are in its FAILED detail.
+* Execution (:class:`~.coalition_runner.CoalitionRunner`): helpers stream what they serve (each
+  value once per receiver, whatever number of coalitions it serves); a
   driving leader runs its task's motor schema, a driving helper maintain_relative_position. When
   the MS is done the leader stops, releases its helpers and reports COMPLETED (FAILED after
   ``task_time_limit``).
@@ -40,53 +44,21 @@ without one goes IDLE -> HELPING (first request) -> COMMITTED (a leader's commit
 from __future__ import annotations
 
 import math
-from typing import Protocol, Sequence
+from typing import Sequence
 
 from .agent import FeasibleCoalition, SchemaAgent
 from .agent_state import AgentState, StatusReport
 from .coalition_execution import CoalitionExecution, ExecutionCheck
+from .coalition_ports import CoalitionChannel, LifecyclePort
 from .coalition_runner import CoalitionRunner
+from .coalition_serving import Commitments
 from .errors import CoalitionError
 from .information_values import ValueUnavailable
-from .motor_schema import STOP, Velocity
+from .motor_schema import STOP
 from .settings import AgentSettings
 from .transport.codec import ChannelMessage, MessageKind
 from .transport.commitments import Negotiation
 from .transport.reliable_channel import Received
-
-
-class LifecyclePort(Protocol):
-    """What the life cycle asks of its host (the node)."""
-
-    def publish_status(self, report: StatusReport) -> None: ...
-
-    def command(self, velocity: Velocity) -> None:
-        """A velocity for the robot (ignored when the agent does not drive)."""
-
-    def log(self, level: str, text: str) -> None:
-        """``level``: info, warning or error."""
-
-    def finish(self) -> None:
-        """``exit_when_done``: this agent is done."""
-
-    def request_reasoning(self) -> None:
-        """Schedule :meth:`AgentLifecycle.reasoning_step` (its inputs changed)."""
-
-    def teammates_listening(self) -> int:
-        """How many teammates' agents listen on the channel now."""
-
-
-class CoalitionChannel(Protocol):
-    """The part of the agent channel the life cycle uses."""
-
-    def new_id(self) -> int: ...
-
-    def propose(self, coalition_id: str, members: Sequence[str], cost: float,
-                hold_seconds: float) -> tuple[Negotiation | None, str]: ...
-
-    def release(self, coalition_id: str, reason: str = '') -> None: ...
-
-    def stream(self, receiver: str, coalition_id: str, instance, values) -> None: ...
 
 
 class AgentLifecycle:
@@ -110,7 +82,9 @@ class AgentLifecycle:
         self.candidates: list[FeasibleCoalition] = []
         self.negotiation: Negotiation | None = None
         self.chosen: FeasibleCoalition | None = None
-        self.commitment: tuple[str, str, tuple[str, ...], float] | None = None  # id, leader, members, cost
+        self.held = Commitments(agent, settings)  # the coalitions it leads and helps; its admission rule
+        channel.admit_with(self.held.admit)
+        self.refusals: list[str] = []  # why candidates were refused in this search (the FAILED detail)
         self.execution: CoalitionExecution | None = None
         self.ms_phase = ''
         self.task_complete = False
@@ -134,17 +108,26 @@ class AgentLifecycle:
     def _note(self, summary: str) -> None:
         self._summary, self._progress = summary, ''
 
+    @property
+    def own_active(self) -> bool:
+        """Whether the coalition it leads is set up and running (not yet released)."""
+        return self.held.own is not None and self.state is AgentState.COMMITTED
+
     def report(self) -> StatusReport:
-        coalition_id, leader, members, cost = self.commitment if self.commitment is not None else ('', '', (), 0.0)
+        primary = self.held.own if self.agent.task is not None else self.held.primary()
+        coalition_id, leader, members, cost = ((primary.coalition_id, primary.leader, primary.members, primary.cost)
+                                               if primary is not None else ('', '', (), 0.0))
+        formed = self.formed_at if self.agent.task is not None or primary is None else primary.since
         return StatusReport(
             self.robot, self.state, self.settings.task_name, coalition_id, leader, tuple(members), float(cost),
             search_started=self.started_at if self.agent.task is not None else None,
             coalition_found=self.found_at, found_cost=self.found_cost if self.found_at is not None else 0.0,
-            coalition_formed=self.formed_at, task_finished=self.finished_at,
+            coalition_formed=formed, task_finished=self.finished_at,
             potential_solution=0 if self.chosen is None or self.formed_at is None
             else self.chosen.potential_solution.rank + 1,
             reforms=self.reforms, goal_distance=self.goal_distance, requests_sent=self.agent.requests_sent,
-            offers_received=self.agent.offers_received, detail=self.detail)
+            offers_received=self.agent.offers_received, detail=self.detail,
+            commitments=tuple(held.report() for held in self.held.held(self.own_active)))
 
     def publish(self) -> None:
         self.port.publish_status(self.report())
@@ -172,7 +155,7 @@ class AgentLifecycle:
         if kind is MessageKind.REQUEST:
             if self.helping_since is None:
                 self.helping_since = now
-                if self.state is AgentState.IDLE:
+                if self.state is AgentState.IDLE and self.agent.task is None:
                     self.state = AgentState.HELPING
                     self.publish()
             self.agent.on_request(message.request, message)
@@ -181,36 +164,49 @@ class AgentLifecycle:
             self.agent.on_offer(message.offer)
             self.port.request_reasoning()
         elif kind is MessageKind.INFORMATION:
-            if (self.commitment is not None and message.coalition_id == self.commitment[0]
-                    and message.sender in self.commitment[2]):  # only the coalition's members
+            if self.held.accepts(message.coalition_id, message.sender, self.own_active):  # its coalitions' members
                 self.runner.stream.update(message.sender, message.instance, dict(message.values), message.message_id,
                                           now)
+        elif kind is MessageKind.COMMIT_REQUEST and received.accepted is False:
+            self.port.log('warning', f'{self.robot}: declined coalition {message.coalition_id} of {message.sender}: '
+                                     f'{received.reason}')
         elif kind is MessageKind.COMMIT_REQUEST and received.accepted:
-            self.commitment = (message.coalition_id, message.sender, message.members, message.cost)
-            self.runner.stream.forget()
-            self.runner.follow = None
-            self.state = AgentState.COMMITTED
-            self.formed_at = now
-            serving = self.agent.sensors_serving(message.sender)
-            if self.settings['drive']:  # the helper MS needs the leader in view and its own contact
-                serving += tuple(s for s in ('fiducial', 'bumper') if s in self.agent.sensing.sensors)
-            self.agent.keep_only(serving)
-            self.port.log('info', f'{self.robot}: committed to coalition {message.coalition_id} of '
-                                  f"{message.sender} ({', '.join(message.members)}, cost {message.cost:g})")
-            self.publish()
+            self._serve(message, now)
         elif kind in (MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT):
             if self.state is AgentState.NEGOTIATING:
                 self._lead(now)  # the negotiation may be decided: do not wait for the tick
-        elif kind is MessageKind.RELEASE and self.commitment and self.commitment[0] == message.coalition_id:
+        elif kind is MessageKind.RELEASE and self.held.release(message.coalition_id, message.sender) is not None:
             self.port.log('info', f'{self.robot}: released from coalition {message.coalition_id}')
-            self.commitment = None
-            self.state = AgentState.IDLE
-            self.agent.keep_only(())
-            self.runner.follow = None
-            self.port.command(STOP)
+            if self.agent.task is None and not self.held.serving:
+                self.state = AgentState.IDLE
+                self.runner.follow = None
+                self.port.command(STOP)
+            elif self.held.motor_leader() is None:
+                self.runner.follow = None
+            self._keep_sensors()
             self.publish()
-            if self.settings['exit_when_done']:
+            if self.settings['exit_when_done'] and self.agent.task is None and not self.held.serving:
                 self._finish()
+
+    def _serve(self, message: ChannelMessage, now: float) -> None:
+        """A COMMIT_REQUEST this robot admitted: it helps that coalition too."""
+        first = not self.held.serving
+        self.held.serve(message.coalition_id, message.sender, message.members, message.cost, now)
+        if self.agent.task is None:
+            if first:  # a pure helper's first coalition: what it streamed or followed before is stale
+                self.runner.stream.forget()
+                self.runner.follow = None
+                self.formed_at = now
+            self.state = AgentState.COMMITTED
+        self._keep_sensors()
+        self.port.log('info', f'{self.robot}: committed to coalition {message.coalition_id} of {message.sender} '
+                              f"({', '.join(message.members)}, cost {message.cost:g}; "
+                              f'{len(self.held.held(self.own_active))} held)')
+        self.publish()
+
+    def _keep_sensors(self) -> None:
+        searching = self.agent.task is not None and self.state in (AgentState.SEARCHING, AgentState.NEGOTIATING)
+        self.held.keep_sensors(searching, self.chosen if self.own_active else None)
 
     def reasoning_step(self, now: float) -> bool:
         """The agent's inputs changed: evaluate, one ``reasoning_slice`` per step; True while work is left."""
@@ -230,13 +226,13 @@ class AgentLifecycle:
             self._lead(now)
             if self.state is AgentState.COMMITTED and self.execution is not None:
                 self._execute(now)
-        elif self.settings['drive'] and self.state is AgentState.COMMITTED:
-            command, note = self.runner.helper_step(self.commitment[1], now)  # type: ignore[index]
+        elif self.settings['drive'] and self.state is AgentState.COMMITTED and self.held.motor_leader():
+            command, note = self.runner.helper_step(self.held.motor_leader(), now)
             if note:
                 self.port.log('info', note)
             if command is not None:
                 self.port.command(command)
-        elif (self.settings['exit_when_done'] and self.commitment is None and self.helping_since is not None
+        elif (self.settings['exit_when_done'] and not self.held.serving and self.helping_since is not None
               and now >= self.helping_since + 3 * self.settings['search_time'] and not self.finished):
             self.agent.keep_only(())
             self._finish()
@@ -264,11 +260,14 @@ class AgentLifecycle:
     def on_stream_timer(self, now: float) -> None:
         """Send the current value of every instance this robot serves its coalition (helpers; a
         leader serves itself locally)."""
-        if self.commitment is None or self.started_at is None:
+        if self.started_at is None:
             return
-        coalition_id, _, members, _ = self.commitment
-        for requester, answer, value in self.runner.served_values(members, now):
-            self.channel.stream(requester, coalition_id, answer, value)
+        sent: set = set()
+        for held in self.held.held(self.own_active):
+            for requester, answer, value in self.runner.served_values(held.members, now):
+                if (requester, answer) not in sent:  # one value per receiver, whatever it serves
+                    sent.add((requester, answer))
+                    self.channel.stream(requester, held.coalition_id, answer, value)
 
     def on_teammate_status(self, robot: str, state: AgentState) -> None:
         if state.finished:
@@ -316,6 +315,7 @@ class AgentLifecycle:
             elif state in ('failed', 'expired'):
                 self.port.log('warning', f'{self.robot}: coalition {self.negotiation.coalition_id} {state}: '
                                          f'{self.negotiation.rejected}')
+                self.refusals += [f'{robot}: {why}' for robot, why in self.negotiation.rejected.items()]
                 self.channel.release(self.negotiation.coalition_id, 'negotiation failed')
                 self._propose_next(now)
 
@@ -323,6 +323,7 @@ class AgentLifecycle:
         self.started_at = now
         self.state = AgentState.SEARCHING
         self.found_at = self._best_cost = self._best_since = self.formed_at = None
+        self.refusals = []
         self.agent.restart(exclude=exclude)
         self.publish()
 
@@ -340,24 +341,28 @@ class AgentLifecycle:
             candidate = self.candidates.pop(0)
             self.attempts += 1
             coalition_id = f'{self.robot}/{self.channel.new_id()}'
+            self.held.proposing = candidate  # its part in the coalition it proposes (the admission rule)
             negotiation, reason = self.channel.propose(coalition_id, candidate.members, candidate.cost,
                                                        self.settings['hold_seconds'])
             if negotiation is None:
                 self.port.log('warning', f'{self.robot}: cannot lead {coalition_id}: {reason}')
+                self.refusals.append(f'{self.robot}: {reason}')
                 continue
             self.negotiation, self.chosen, self.state = negotiation, candidate, AgentState.NEGOTIATING
             self.publish()
             if negotiation.state(now) == 'established':  # no helpers to wait for
                 self._established(now)
             return
+        refused = '; '.join(dict.fromkeys(self.refusals[-3:]))
         self._fail(f'no executable coalition could be set up after {now - self.started_at:.2f} s '
-                   f'({self.attempts} negotiation(s))')
+                   f'({self.attempts} negotiation(s))' + (f'; refused: {refused}' if refused else ''))
 
     def _fail(self, why: str) -> None:
         self.state = AgentState.FAILED
+        self.held.task_open = False
         self._note(why)
         self.port.log('error', f'{self.robot}: {why}')
-        self.agent.keep_only(())
+        self._keep_sensors()
         self.publish()
         self.own_done = True
         self._maybe_finish()
@@ -366,9 +371,10 @@ class AgentLifecycle:
         chosen, negotiation = self.chosen, self.negotiation
         self.formed_at = now
         self.state = AgentState.COMMITTED
-        self.commitment = (negotiation.coalition_id, self.robot, chosen.members, chosen.cost)
-        # Its own sensors, and those of the answers it gives itself (footnote 10 self-requests).
-        self.agent.keep_only(chosen.sensors() + self.agent.sensors_serving(self.robot))
+        self.held.lead(negotiation.coalition_id, chosen.members, chosen.cost, now)
+        # Its own sensors, those of the answers it gives itself (footnote 10 self-requests) and
+        # those of the coalitions it helps.
+        self._keep_sensors()
         self.execution = CoalitionExecution(chosen.lcs, now, self.settings['reform_timeout'] or math.inf)
         start = self.started_at
         found = '' if self.found_at is None else \
@@ -421,28 +427,29 @@ class AgentLifecycle:
 
     def _finish_task(self, now: float, state: AgentState, why: str) -> None:
         """The task is over (done, or out of time): stop, release the helpers, report."""
-        coalition_id = self.commitment[0]
+        coalition_id = self.held.own.coalition_id  # type: ignore[union-attr]
         self.port.command(STOP)
         self.channel.release(coalition_id, f'task {state.label}')
         self.execution = None
         self.state = state
+        self.held.task_open = False
         self.finished_at = now
         self._note(f'{self._summary}; task {state.label} at {now:.3f} s ({why})')
         self.port.log('info' if state is AgentState.COMPLETED else 'error',
                       f'{self.robot}: task {self.settings.task_name} {state.label}: {why}; '
                       f'coalition {coalition_id} released')
-        self.agent.keep_only(())
+        self._keep_sensors()
         self.publish()
         self.own_done = True
         self._maybe_finish()
 
     def _reform(self, now: float, check: ExecutionCheck) -> None:
-        coalition_id = self.commitment[0]
+        coalition_id = self.held.own.coalition_id  # type: ignore[union-attr]
         self.port.command(STOP)
         self.port.log('warning', f'{self.robot}: coalition {coalition_id} infeasible for {check.infeasible_for:.2f} s '
                                  f"({'; '.join(check.missing)}): releasing it")
         self.channel.release(coalition_id, 'information stopped: ' + '; '.join(check.missing))
-        self.commitment, self.execution, self.chosen, self.negotiation = None, None, None, None
+        self.held.own, self.execution, self.chosen, self.negotiation = None, None, None, None
         self.runner.stream.forget()
         self.ms_phase = ''
         if self.reforms >= self.settings['max_reforms']:
@@ -461,6 +468,9 @@ class AgentLifecycle:
     def _finish(self) -> None:
         if not self.finished:
             self.finished = True
+            if self.held.serving:
+                self.port.log('warning', f"{self.robot}: finishing (exit_when_done) while it helps coalition(s) "
+                                         f"{', '.join(self.held.serving)}: their leaders will see its information stop")
             self.port.finish()
 
 

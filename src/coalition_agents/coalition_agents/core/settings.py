@@ -108,6 +108,9 @@ AGENT_SETTINGS = SettingsSchema(
              "completed or failed too (an experiment's last leader)"),
     _setting('task_time_limit', 0.0, 'sim s after the search start a driving leader gives up (0 = none)',
              **NON_NEGATIVE),
+    _setting('aimed_sensors', [''], "sensors of this robot that must be aimed at one referent at a time (a pan-tilt "
+             "camera): two coalitions that need one on different referents conflict; the others' one reading is "
+             "shared by every coalition it serves"),
     _setting('exit_when_done', False, 'exit once the coalition is set up (or failed) / the helper released'),
 )
 
@@ -193,6 +196,7 @@ class AgentSettings:
         (e.g. ``namespace /robot_1``). ConfigurationError names the parameter."""
         values = AGENT_SETTINGS.validate(values, ignore=('robot', 'team_namespace'))
         values['exit_after'] = [name for name in values['exit_after'] if name]
+        values['aimed_sensors'] = list(dict.fromkeys(name for name in values['aimed_sensors'] if name))
         library, costs, tasks, capability_file = load_files(values)
         source = capability_source(values)
         team_of = "the capability file's" if source == 'capability_file' else "parameter capabilities'"
@@ -205,6 +209,11 @@ class AgentSettings:
                 raise ConfigurationError(
                     f"parameter {source}: robot {robot}'s sensor '{sensor.sensor}' is not a bridge sensor "
                     f"(allowed: {', '.join(BRIDGE_SENSORS)})")
+        own = [sensor.sensor for sensor in team[robot].sensors]
+        aimed = [name for name in values['aimed_sensors'] if name not in own]
+        if aimed:
+            raise ConfigurationError(f"parameter aimed_sensors: {aimed[0]!r} is not a sensor of {robot} "
+                                     f"({', '.join(own) or 'none'})")
         task = None if values['task'] == 'none' else task_named(tasks, values['task'], 'task')
         team_task = task_named(tasks, values['team_task'], 'team_task') if values['team_task'] else None
         if task is None and team_task is None:

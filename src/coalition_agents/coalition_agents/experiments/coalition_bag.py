@@ -21,8 +21,15 @@ text only). A zero stamp means "not (yet)" and is read as None.
     cheapest coalition has not improved for ``settle_time``, or at ``search_time`` at the latest:
     formed - found is settle_time plus the negotiation's round trips.
 
-* :func:`commitments`, :func:`conflicting_commitments` -- which coalitions each robot held, and
-  whether one held two at once (the CommitmentLedger forbids it; this checks it from outside);
+* :func:`commitments`, :func:`conflicting_commitments`, :func:`shared_commitments`,
+  :func:`commitment_check` -- which coalitions each robot held, and whether it held several at
+  once that conflict. A robot may serve several coalitions at once where its schemas can serve
+  them together (capability sharing: the same reading, the same communicated information); each
+  status lists every coalition the robot holds and what its schemas do for each (``commitments``,
+  ``uses``), and the core's rule (:func:`~..core.coalition_sharing.conflict`: one motor schema at a
+  time, an aimed sensor on one referent) is applied to them from outside: pairs it refuses are
+  conflicts, the others sharing. A status without that list (older bags) counts as holding its one
+  ``coalition_id``: a new coalition id without a releasing status in between is a conflict;
 * :func:`message_counts`, :func:`kind_totals` -- the channel traffic (Fig. 9's lower plots).
 """
 from __future__ import annotations
@@ -34,6 +41,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..core.agent_state import AgentState
+from ..core.coalition_sharing import CoalitionPart, conflicting_pairs
 from ..core.transport.codec import MessageKind
 
 CHANNEL = '/coalition/channel'
@@ -44,6 +52,16 @@ RELEASED = (AgentState.IDLE, AgentState.FAILED, AgentState.SEARCHING)
 
 def status_topic(robot: str) -> str:
     return f'/{robot}/coalition'
+
+
+@dataclass(frozen=True)
+class CommitmentRecord:
+    """One entry of a status's ``commitments``: a coalition held, and what the robot's schemas do for it."""
+
+    coalition_id: str
+    leader: str
+    members: tuple[str, ...] = ()
+    uses: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -66,6 +84,12 @@ class StatusRecord:
     task_finished: float | None = None
     potential_solution: int = 0
     reforms: int = 0
+    #: every coalition held at once (its own first); () in bags of agents without the field
+    commitments: tuple[CommitmentRecord, ...] = ()
+
+    def parts(self) -> list[CoalitionPart]:
+        """The held coalitions as the core's parts (for :func:`~..core.coalition_sharing.conflict`)."""
+        return [CoalitionPart.from_texts(self.robot, c.coalition_id, c.leader, c.uses) for c in self.commitments]
 
 
 @dataclass(frozen=True)
@@ -113,7 +137,9 @@ def status_record(msg) -> StatusRecord:
     return StatusRecord(_stamp(msg.header), msg.robot, AgentState(msg.state), msg.task, msg.coalition_id, msg.leader,
                         tuple(msg.members), float(msg.cost), msg.detail, _time(msg.search_started),
                         _time(msg.coalition_found), float(msg.found_cost), _time(msg.coalition_formed),
-                        _time(msg.task_finished), int(msg.potential_solution), int(msg.reforms))
+                        _time(msg.task_finished), int(msg.potential_solution), int(msg.reforms),
+                        tuple(CommitmentRecord(c.coalition_id, c.leader, tuple(c.members), tuple(c.uses))
+                              for c in getattr(msg, 'commitments', ())))
 
 
 def read_coalition_bag(bag: Path) -> CoalitionRun:
@@ -199,30 +225,79 @@ def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
 
 
 def commitments(run: CoalitionRun) -> dict[str, list[str]]:
-    """robot -> the distinct coalitions it was committed to, in order (a robot holding two at once
-    shows up in :func:`conflicting_commitments`)."""
+    """robot -> the distinct coalitions it was committed to, in order (from ``coalition_id`` of its
+    COMMITTED statuses and from every status's ``commitments``)."""
     found: dict[str, list[str]] = defaultdict(list)
     for status in run.statuses:
-        if (status.state is AgentState.COMMITTED and status.coalition_id
-                and status.coalition_id not in found[status.robot]):
-            found[status.robot].append(status.coalition_id)
+        ids = [c.coalition_id for c in status.commitments]
+        if status.state is AgentState.COMMITTED and status.coalition_id:
+            ids.insert(0, status.coalition_id)
+        for coalition_id in ids:
+            if coalition_id and coalition_id not in found[status.robot]:
+                found[status.robot].append(coalition_id)
     return dict(found)
 
 
-def conflicting_commitments(run: CoalitionRun) -> dict[str, list[str]]:
-    """robot -> coalitions it was committed to while still committed to another: a status with a
-    new coalition id without a releasing status (:data:`RELEASED`) in between."""
-    conflicts: dict[str, list[str]] = {}
+def _conflicts(run: CoalitionRun) -> dict[str, dict[tuple[str, str], str]]:
+    """robot -> (coalition, coalition) -> why it could not serve both (see the module docstring)."""
+    found: dict[str, dict[tuple[str, str], str]] = {}
     for robot in run.robots():
         current = ''
         for status in run.of(robot):
-            if status.state is AgentState.COMMITTED and status.coalition_id:
+            if status.commitments:
+                for a, b, reason in conflicting_pairs(status.parts()):
+                    found.setdefault(robot, {}).setdefault((a, b), reason)
+                current = status.coalition_id if status.state is AgentState.COMMITTED else ''
+            elif status.state is AgentState.COMMITTED and status.coalition_id:
                 if current and status.coalition_id != current:
-                    conflicts.setdefault(robot, [current]).append(status.coalition_id)
+                    found.setdefault(robot, {}).setdefault(
+                        (current, status.coalition_id), 'committed to a new coalition without being released')
                 current = status.coalition_id
             elif status.state in RELEASED:
                 current = ''
-    return conflicts
+    return found
+
+
+def conflicting_commitments(run: CoalitionRun) -> dict[str, list[str]]:
+    """robot -> the coalitions it held at once although they conflict (module docstring), in order."""
+    result: dict[str, list[str]] = {}
+    for robot, pairs in _conflicts(run).items():
+        ids: list[str] = []
+        for pair in pairs:
+            ids.extend(c for c in pair if c not in ids)
+        result[robot] = ids
+    return result
+
+
+def shared_commitments(run: CoalitionRun) -> dict[str, list[str]]:
+    """robot -> the coalitions it served at once without a conflict (capability sharing), in order."""
+    conflicting = _conflicts(run)
+    result: dict[str, list[str]] = {}
+    for status in run.statuses:
+        if len(status.commitments) < 2:
+            continue
+        bad = conflicting.get(status.robot, {})
+        ids = [c.coalition_id for c in status.commitments]
+        for index, a in enumerate(ids):
+            for b in ids[index + 1:]:
+                if (a, b) not in bad and (b, a) not in bad:
+                    held = result.setdefault(status.robot, [])
+                    held.extend(c for c in (a, b) if c not in held)
+    return result
+
+
+def commitment_check(run: CoalitionRun) -> dict:
+    """The commitments of a run: ``conflicting`` (robot -> coalitions held at once that conflict),
+    ``conflict_reasons``, ``shared`` (robot -> coalitions served at once, sharing),
+    ``robots_serving_several`` (robots that held two or more coalitions at once) and
+    ``max_coalitions_per_robot``."""
+    conflicts = _conflicts(run)
+    several = {s.robot for s in run.statuses if len(s.commitments) > 1} | set(conflicts)
+    return {'conflicting': conflicting_commitments(run),
+            'conflict_reasons': {robot: sorted(set(pairs.values())) for robot, pairs in conflicts.items()},
+            'shared': shared_commitments(run), 'robots_serving_several': len(several),
+            'max_coalitions_per_robot': max([len(s.commitments) for s in run.statuses]
+                                            + [1 if s.coalition_id else 0 for s in run.statuses] + [0])}
 
 
 def message_counts(run: CoalitionRun, robots: Sequence[str], start: float, end: float,
@@ -260,6 +335,7 @@ def kind_totals(run: CoalitionRun) -> dict[str, int]:
 
 
 
-__all__ = ['CHANNEL', 'CoalitionRun', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE', 'StatusRecord',
-           'commitments', 'conflicting_commitments', 'kind_totals', 'leader_timeline', 'message_counts',
-           'read_coalition_bag', 'status_record', 'status_topic']
+__all__ = ['CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE',
+           'StatusRecord', 'commitment_check', 'commitments', 'conflicting_commitments', 'kind_totals',
+           'leader_timeline', 'message_counts', 'read_coalition_bag', 'shared_commitments', 'status_record',
+           'status_topic']

@@ -269,6 +269,11 @@ class AgentChannel:
     def release(self, coalition_id: str, reason: str = '') -> None:
         self._queue(self.core.release(coalition_id, self.now(), reason))
 
+    def admit_with(self, rule) -> None:
+        """The commitment ledger's admission rule (which coalitions this robot may hold together;
+        :class:`~..core.transport.commitments.CommitmentLedger`)."""
+        self.core.ledger.admission = rule
+
     def _queue(self, messages: Iterable[ChannelMessage]) -> None:
         """Put messages into the outbox: negotiation messages leave at once (with whatever else
         waits for that robot), the rest at the end of the processing step."""

@@ -3,11 +3,14 @@
 Commitments (the paper sets coalitions up
 "using the same request-and-wait negotiation protocol as used in the distributed version of
 ASyMTRe"; our rendering of it):
-    * A robot holds at most one commitment: to the coalition it leads or to one coalition as a
-      helper. A COMMIT_REQUEST for another coalition is rejected (with the reason) until that
-      commitment is released or its hold time (``hold_seconds``, from the leader; 0 = until
-      released) has passed without renewal. A new COMMIT_REQUEST for the coalition already
-      held renews it.
+    * A robot holds commitments to the coalition it leads and to coalitions it helps. Which
+      ones it may hold together is its ``admission`` rule (the agent's: capability sharing,
+      :func:`~..coalition_sharing.first_conflict`; it sees the held commitments and the new one
+      and returns why not, '' = admitted). Without a rule a robot holds one commitment at a time.
+      A COMMIT_REQUEST the rule refuses is rejected with the rule's reason; a commitment ends
+      when it is released or its hold time (``hold_seconds``, from the leader; 0 = until
+      released) has passed without renewal. A new COMMIT_REQUEST for a coalition already
+      held renews it (no admission: it was admitted).
     * The leader commits itself, sends COMMIT_REQUEST to every helper and waits. All accept:
       the coalition is *established*. One rejects or cannot be reached: the negotiation *failed*
       and the leader sends RELEASE to every helper (a helper whose ACCEPT was lost holds the
@@ -22,7 +25,7 @@ ASyMTRe"; our rendering of it):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 from .retry import NEVER
 
@@ -41,43 +44,64 @@ class Commitment:
         return (self.coalition_id, self.leader) != (coalition_id, leader)
 
 
-class CommitmentLedger:
-    """The one commitment a robot may hold; ``history`` records every change (time, event, id)."""
+#: (held commitments, coalition id, leader, members) -> why the robot cannot also commit to it ('' = it can)
+Admission = Callable[[tuple[Commitment, ...], str, str, tuple[str, ...]], str]
 
-    def __init__(self, robot: str):
+
+class CommitmentLedger:
+    """The commitments a robot holds (in the order they were taken); ``history`` records every
+    change (time, event, id); ``admission`` decides which may be held together (module docstring)."""
+
+    def __init__(self, robot: str, admission: Admission | None = None):
         self.robot = robot
-        self._current: Commitment | None = None
+        self.admission = admission
+        self._held: dict[tuple[str, str], Commitment] = {}
         self.history: list[tuple[float, str, str]] = []
 
+    def held(self, now: float) -> tuple[Commitment, ...]:
+        """Every commitment held at ``now`` (expired ones are dropped)."""
+        for key, commitment in list(self._held.items()):
+            if now >= commitment.expires_at:
+                self.history.append((now, 'expired', commitment.coalition_id))
+                del self._held[key]
+        return tuple(self._held.values())
+
     def active(self, now: float) -> Commitment | None:
-        """The commitment held at ``now`` (an expired one is dropped)."""
-        current = self._current
-        if current is not None and now >= current.expires_at:
-            self.history.append((now, 'expired', current.coalition_id))
-            self._current = None
-        return self._current
+        """The first commitment held at ``now`` (None: none)."""
+        held = self.held(now)
+        return held[0] if held else None
 
     def hold(self, coalition_id: str, leader: str, members: Sequence[str], now: float,
              hold_seconds: float = 0.0) -> tuple[bool, str]:
         """Commit to ``coalition_id`` (or renew it): (True, '') or (False, why not)."""
-        current = self.active(now)
-        if current is not None and current.conflicts_with(coalition_id, leader):
-            return False, f'{self.robot} is committed to coalition {current.coalition_id} of {current.leader}'
+        held = self.held(now)
+        current = self._held.get((coalition_id, leader))
+        if current is None and held:
+            if self.admission is None:
+                first = held[0]
+                return False, f'{self.robot} is committed to coalition {first.coalition_id} of {first.leader}'
+            reason = self.admission(held, coalition_id, leader, tuple(members))
+            if reason:
+                return False, reason
+        elif current is None and self.admission is not None:
+            reason = self.admission((), coalition_id, leader, tuple(members))
+            if reason:
+                return False, reason
         expires_at = now + hold_seconds if hold_seconds > 0 else NEVER
-        self._current = Commitment(coalition_id, leader, tuple(members),
-                                   now if current is None else current.since, expires_at)
+        self._held[(coalition_id, leader)] = Commitment(coalition_id, leader, tuple(members),
+                                                         now if current is None else current.since, expires_at)
         self.history.append((now, 'renewed' if current is not None else 'committed', coalition_id))
         return True, ''
 
     def holds(self, coalition_id: str, leader: str, now: float) -> bool:
-        current = self.active(now)
-        return current is not None and not current.conflicts_with(coalition_id, leader)
+        self.held(now)
+        return (coalition_id, leader) in self._held
 
     def release(self, coalition_id: str, leader: str, now: float) -> bool:
         """Drop the commitment to ``coalition_id`` of ``leader``; False if it was not held."""
         if not self.holds(coalition_id, leader, now):
             return False
-        self._current = None
+        del self._held[(coalition_id, leader)]
         self.history.append((now, 'released', coalition_id))
         return True
 
@@ -116,4 +140,4 @@ class Negotiation:
         return 'established' if self.accepted >= set(self.helpers) else 'waiting'
 
 
-__all__ = ['Commitment', 'CommitmentLedger', 'Negotiation']
+__all__ = ['Admission', 'Commitment', 'CommitmentLedger', 'Negotiation']

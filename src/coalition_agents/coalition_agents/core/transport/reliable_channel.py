@@ -83,8 +83,9 @@ class Received:
     deliver: ChannelMessage | None = None
     replies: list[ChannelMessage] = field(default_factory=list)
     duplicate: bool = False
-    #: for a delivered COMMIT_REQUEST: whether this robot accepted it
+    #: for a delivered COMMIT_REQUEST: whether this robot accepted it, and why not
     accepted: bool | None = None
+    reason: str = ''
 
 
 @dataclass
@@ -317,7 +318,7 @@ class ReliableChannel:
             else:
                 accepted, reason = self.ledger.hold(message.coalition_id, message.sender, message.members, now,
                                                     message.hold_seconds)
-            received.accepted = accepted
+            received.accepted, received.reason = accepted, reason
             reply = reply_message(MessageKind.COMMIT_ACCEPT if accepted else MessageKind.COMMIT_REJECT,
                                   self.new_id(), self.robot, message, coalition_id=message.coalition_id,
                                   reason=reason)
@@ -387,8 +388,8 @@ class ReliableChannel:
     def propose(self, coalition_id: str, members: Sequence[str], cost: float, now: float,
                 hold_seconds: float) -> tuple[Negotiation | None, list[ChannelMessage], str]:
         """Start negotiating coalition ``coalition_id`` (this robot leads, ``members`` include it):
-        (negotiation, COMMIT_REQUEST copies to send, '') or (None, [], why not) when this robot
-        holds another commitment."""
+        (negotiation, COMMIT_REQUEST copies to send, '') or (None, [], why not) when this robot's
+        commitments do not admit it (:class:`~.commitments.CommitmentLedger`)."""
         if self.robot not in members:
             raise RequestError(f'members: the leader {self.robot} must be a member (got {list(members)})')
         if coalition_id in self.negotiations:
