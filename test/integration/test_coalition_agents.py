@@ -267,3 +267,54 @@ def test_the_leader_reports_failed_when_its_only_helper_stops(session, files, co
                                      predicate=lambda m: m.state == AgentStatus.FAILED)
     assert 'no executable coalition could be set up' in final.detail
     assert final.coalition_id == ''
+
+
+# --- several leaders in one team: capability sharing ------------------------------------------------
+
+def test_a_column_in_which_every_robot_but_the_front_one_navigates(session, config_dir, tmp_path):
+    """Fig. 9's column of four on the bridge (each robot sees only the robot ahead, robot_1 alone
+    localises), but robot_2, robot_3 and robot_4 each run the navigation task: every coalition
+    forms, the front robot serves three coalitions and robot_2 two besides its own (the same
+    readings, streamed to every leader), and the conflict check reports sharing, not conflict."""
+    from collab_tools.orchestration.node_process import NodeSpec as Spec
+    from coalition_agents.core.sim_scenarios import (
+        COLUMN_TYPES, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, capability_text,
+        column_placements,
+    )
+    from coalition_agents.experiments.coalition_bag import CoalitionRun, commitment_check, status_record
+    placements = column_placements(4, 1.0)
+    robots = [p.robot for p in placements]
+    team = capability_file(placements, COLUMN_TYPES)
+    scenario = tmp_path / 'column.yaml'
+    scenario.write_text(yaml.safe_dump(bridge_scenario('leaders_column', placements, team['robot_types'],
+                                                       SensorSettings(fiducial_fov_deg=60.0, fiducial_range_m=1.5))))
+    session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
+                              ground_truth_rate=1.0))
+    coalitions = config_dir / 'coalitions'
+    common = {'capabilities': capability_text(team), 'schemas_file': str(coalitions / 'schemas.yaml'),
+              'costs_file': str(coalitions / 'costs.yaml'), 'tasks_file': str(coalitions / 'tasks.yaml'),
+              'task': 'none', 'team_task': 'navigation', 'search_time': 6.0, 'settle_time': 1.0, 'seed': 13}
+    agents = tmp_path / 'agents.yaml'
+    agents.write_text(yaml.safe_dump(agent_parameter_file(common, {r: {'task': 'navigation'} for r in robots[1:]})))
+    session.start(Spec('coalition_agents', 'schema_agent_host', name='column_host',
+                       parameters=[{'robots': robots, 'agent_parameters': str(agents)}]))
+    final = {}
+    for robot in robots[1:]:
+        final[robot] = session.wait_for_message(
+            f'/{robot}/coalition', STATUS, latched=True, timeout=90.0,
+            predicate=lambda m: m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
+    for index, robot in enumerate(robots[1:], start=2):
+        assert final[robot].state == AgentStatus.COMMITTED, final[robot].detail
+        assert sorted(final[robot].members) == robots[:index] and final[robot].leader == robot
+    own = {robot: final[robot].coalition_id for robot in robots[1:]}
+    held = {'robot_1': 3, 'robot_2': 3, 'robot_3': 2, 'robot_4': 1}
+    latest = [session.wait_for_message(f'/{robot}/coalition', STATUS, latched=True, timeout=15.0,
+                                       predicate=lambda m, n=held[robot]: len(m.commitments) == n)
+              for robot in robots]
+    assert {c.coalition_id for c in latest[0].commitments} == set(own.values())
+    assert latest[0].state == AgentStatus.COMMITTED and latest[1].state == AgentStatus.COMMITTED
+    assert [c.coalition_id for c in latest[1].commitments][0] == own['robot_2']
+    assert any(use.startswith('sensor:gps:') for c in latest[0].commitments for use in c.uses)
+    check = commitment_check(CoalitionRun(statuses=[status_record(m) for m in latest]))
+    assert check['conflicting'] == {} and check['robots_serving_several'] == 3
+    assert sorted(check['shared']) == ['robot_1', 'robot_2', 'robot_3']
