@@ -186,8 +186,9 @@ def test_benchmark_quick(config_dir, tmp_path):
 def test_experiments_are_listed_with_their_options():
     from coalition_agents.experiments import EXPERIMENTS
     options = {e.name: [o.flag for o in e.options] for e in EXPERIMENTS}
-    assert options == {'coalition-table3': [], 'coalition-fig7': ['--mode', '--loss', '--scenario'],
-                       'coalition-fig9': ['--robots'], 'coalition-boxpush': []}
+    assert options == {'coalition-table3': [], 'coalition-fig7': ['--mode', '--loss', '--scenario', '--team'],
+                       'coalition-fig9': ['--robots', '--column'],
+                       'coalition-boxpush': ['--experiment', '--scenario', '--team', '--agents']}
     assert all('IQ-ASyMTRe' in e.paper and e.runner() for e in EXPERIMENTS)
 
 

@@ -9,6 +9,11 @@ Capability file format (every field validated, unknown keys are errors)::
           - name: fiducial        # required, unique in the type; 'prior' is reserved
             provides:             # required list: one ES-EPS pair per label this sensor's
               - F_R(X, local)     #   EPS retrieves (variables are instantiated by the reading)
+            fov_deg: 180.0        # optional, (0, 360]: the sensor's field of view, centred on the
+            range_m: 4.0          #   heading, and range (m, > 0), both or neither: what a sensor
+                                  #   that senses other robots (a label with a variable) sees in
+                                  #   the geometric model (core.geometric_sensing) and the
+                                  #   generated bridge scenario; per robot type, so per robot
         perceptual_schemas:       # optional robot-specific PSs in IQ form (cost `ps`)
           - name: laser_localization           # unique, must not shadow a library RPS
             conversion: F_A(local) + F_M => F_G(local)
@@ -49,6 +54,12 @@ class RobotCapabilities:
     perceptual_schemas: tuple[Conversion, ...] = ()
     motor_schemas: frozenset[str] = frozenset()
     description: str = ''
+    #: (sensor, fov_deg, range_m) of the sensors whose entry gives a field of view
+    sensor_views: tuple[tuple[str, float, float], ...] = ()
+
+    def sensor_view(self, sensor: str) -> tuple[float, float] | None:
+        """(fov_deg, range_m) of ``sensor`` when the team file gives them, else None."""
+        return next(((fov, reach) for name, fov, reach in self.sensor_views if name == sensor), None)
 
     @property
     def reasoning_key(self) -> tuple:
@@ -61,7 +72,7 @@ class RobotCapabilities:
 
     def with_sensors(self, extra: tuple[SensorSchema, ...]) -> 'RobotCapabilities':
         return RobotCapabilities(self.name, self.sensors + extra, self.perceptual_schemas,
-                                 self.motor_schemas, self.description)
+                                 self.motor_schemas, self.description, self.sensor_views)
 
 
 @dataclass(frozen=True)
@@ -76,14 +87,18 @@ def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: s
     section = Fields(data, path, ('description', 'sensors', 'perceptual_schemas', 'motor_schemas'), error=ConfigError)
     sensors: list[SensorSchema] = []
     sensor_names: set[str] = set()
+    views: list[tuple[str, float, float]] = []
     for sensor_path, item in section.items('sensors', []):
-        entry = Fields(item, sensor_path, ('name', 'provides'), error=ConfigError)
+        entry = Fields(item, sensor_path, ('name', 'provides', 'fov_deg', 'range_m'), error=ConfigError)
         sensor = entry.name('name')
         if sensor == PRIOR_SENSOR:
             raise ConfigError(f"{entry.path_of('name')}: '{PRIOR_SENSOR}' is reserved for a task's a priori information")
         if sensor in sensor_names:
             raise ConfigError(f"{entry.path_of('name')}: sensor '{sensor}' is listed twice")
         sensor_names.add(sensor)
+        view = _sensor_view(entry)
+        if view is not None:
+            views.append((sensor, *view))
         labels = entry.items('provides')
         if not labels:
             raise ConfigError(f"{entry.path_of('provides')}: a sensor must provide at least one label")
@@ -103,7 +118,21 @@ def capabilities_from_dict(data: Any, library: SchemaLibrary, name: str, path: s
                               f"shadows a library RPS of the same name")
     motor = check_listed_names(section.items('motor_schemas', []))
     return RobotCapabilities(name, tuple(sensors), own, frozenset(motor),
-                             section.string('description', '', allow_empty=True))
+                             section.string('description', '', allow_empty=True), tuple(views))
+
+
+def _sensor_view(entry: Fields) -> tuple[float, float] | None:
+    """A sensor entry's (fov_deg, range_m), both or neither."""
+    given = [key for key in ('fov_deg', 'range_m') if entry.raw(key, None) is not None]
+    if not given:
+        return None
+    if len(given) == 1:
+        missing = 'range_m' if given[0] == 'fov_deg' else 'fov_deg'
+        raise ConfigError(f'{entry.path_of(missing)}: required with {given[0]} (a field of view needs both)')
+    fov = entry.number('fov_deg', gt=0.0)
+    if fov > 360.0:
+        raise ConfigError(f"{entry.path_of('fov_deg')}: must be in (0, 360] (got {fov})")
+    return fov, entry.number('range_m', gt=0.0)
 
 
 def capability_file_from_dict(data: Any, library: SchemaLibrary, path: str = '') -> CapabilityFile:

@@ -11,7 +11,15 @@ file and the hosted agents' parameter file (used by the sim experiments, ``coali
   ``config/coalitions/scenarios/fig7.yaml``).
 * :func:`bridge_scenario` -- the pybullet_bridge scenario (``config/scenarios`` format) of the
   placements: every robot with the bridge sensors its type has, all inactive (the agents switch on
-  what their potential solutions need).
+  what their potential solutions need); a robot's fiducial takes its own field of view
+  (:attr:`Placement.fiducial`, from its type's sensor entry) or the shared :class:`SensorSettings`;
+  the scenario's obstacles ride along.
+* :func:`parse_obstacles` -- a coalition scenario's ``obstacles`` section (the bridge's format:
+  ``boxes`` and a ``map``, parsed by the bridge's own pure parser ``pybullet_bridge.core.obstacles``)
+  as planar boxes for the geometric sensing model, and as the section the generated bridge
+  scenario carries (image paths made absolute); :func:`check_footprints` refuses robots standing
+  in an obstacle. Only boxes taller than the simulated robot's sensor (:data:`SENSOR_HEIGHT_M`)
+  hide anything, in the bridge (its ray runs at half the robot's height) as in the core.
 * :func:`capability_file` -- the team capability file (``config/coalitions/capabilities`` format)
   with the bridge's sensor names (``sensor_names`` renames, e.g. the paper's ``localization`` to
   the bridge's ``gps``).
@@ -28,14 +36,23 @@ from __future__ import annotations
 import colorsys
 import math
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Mapping, Sequence
 
 import yaml
+from collab_tools.core.errors import ConfigurationError
+from pybullet_bridge.core.robot_types import BUILTIN_ROBOT_TYPES
+from collab_tools.core.visibility import Box, boxes_above, point_in_box
 
 from .errors import ConfigError
 
 #: Sensors the bridge simulates (pybullet_bridge sensor names).
 BRIDGE_SENSORS = ('fiducial', 'laser', 'gps', 'bumper')
+#: The bridge robot type every generated robot is, its footprint radius and its sensors' height
+#: (half the robot's height: where the bridge's fiducial and laser rays run).
+SIM_ROBOT_TYPE = 'pioneer_3dx'
+ROBOT_RADIUS_M = float(BUILTIN_ROBOT_TYPES[SIM_ROBOT_TYPE]['radius'])
+SENSOR_HEIGHT_M = float(BUILTIN_ROBOT_TYPES[SIM_ROBOT_TYPE]['height']) / 2.0
 
 
 @dataclass(frozen=True)
@@ -47,6 +64,8 @@ class Placement:
     y: float
     heading_deg: float
     robot_type: str
+    #: this robot's fiducial (fov_deg, range_m) when its type gives one (else SensorSettings')
+    fiducial: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -100,12 +119,59 @@ def column_sees_only_the_robot_ahead(spacing_m: float, sensors: SensorSettings) 
     return spacing_m <= sensors.fiducial_range_m < 2.0 * spacing_m and sensors.fiducial_fov_deg < 360.0
 
 
-def placements_from_poses(poses: Mapping[str, tuple[float, float, float]], robot_types: Mapping[str, str]) -> list[Placement]:
-    """Placements of ``robot -> (x, y, heading_deg)`` with each robot's type."""
+def placements_from_poses(poses: Mapping[str, tuple[float, float, float]], robot_types: Mapping[str, str],
+                          fiducials: Mapping[str, tuple[float, float]] | None = None) -> list[Placement]:
+    """Placements of ``robot -> (x, y, heading_deg)`` with each robot's type (and its own fiducial
+    (fov_deg, range_m) where ``fiducials`` gives one)."""
     missing = [robot for robot in poses if robot not in robot_types]
     if missing:
         raise ConfigError(f'robots.{missing[0]}: no type for this robot')
-    return [Placement(robot, float(x), float(y), float(h), robot_types[robot]) for robot, (x, y, h) in poses.items()]
+    own = dict(fiducials or {})
+    return [Placement(robot, float(x), float(y), float(h), robot_types[robot], own.get(robot))
+            for robot, (x, y, h) in poses.items()]
+
+
+@dataclass(frozen=True)
+class Obstacles:
+    """A scenario's obstacles: ``boxes`` (every one, for footprints) and ``occluding`` (taller
+    than the sensor) for the sensing model; ``section``: the bridge's ``obstacles`` section."""
+
+    boxes: tuple[Box, ...] = ()
+    occluding: tuple[Box, ...] = ()
+    section: Mapping[str, Any] | None = None
+
+
+def parse_obstacles(value: Any, base_dir: Path, path: str = 'obstacles') -> Obstacles:
+    """The ``obstacles`` section of a coalition scenario, in the bridge's format and parsed by the
+    bridge's parser (errors name the field); relative image paths are relative to ``base_dir``."""
+    if value is None:
+        return Obstacles()
+    from pybullet_bridge.core.obstacles import parse_obstacles as parse_bridge_obstacles
+    from pybullet_bridge.core.sections import SectionContext
+    from pybullet_bridge.core.world import WorldConfig
+    world = WorldConfig('world', 0.004, -9.81, (-1e6, -1e6, 1e6, 1e6), None)
+    try:
+        definitions = parse_bridge_obstacles(value, SectionContext(path, Path(base_dir), world, {}, None))
+    except ConfigurationError as exc:
+        raise ConfigError(str(exc)) from None
+    boxes = tuple(Box(d.center, d.size, d.yaw, d.height, d.name) for d in definitions)
+    section = dict(value)
+    if isinstance(section.get('map'), str):
+        section['map'] = str((Path(base_dir) / section['map']).resolve())
+    elif isinstance(section.get('map'), Mapping):
+        section['map'] = {key: str((Path(base_dir) / item).resolve()) if key in ('image', 'yaml') else item
+                          for key, item in section['map'].items()}
+    return Obstacles(boxes, tuple(boxes_above(boxes, SENSOR_HEIGHT_M)), section)
+
+
+def check_footprints(positions: Mapping[str, tuple[float, float]], obstacles: Obstacles,
+                     radius_m: float = ROBOT_RADIUS_M) -> None:
+    """Refuse a robot whose footprint disc overlaps an obstacle (the bridge would spawn it inside)."""
+    for robot, position in positions.items():
+        for box in obstacles.boxes:
+            if point_in_box(position, box, radius_m):
+                raise ConfigError(f'robots.{robot}.position: the robot\'s footprint (radius {radius_m} m) '
+                                  f'overlaps obstacle {box.name!r} (centre {list(box.center)}, size {list(box.size)})')
 
 
 def _colour(index: int, count: int) -> list[float]:
@@ -115,9 +181,11 @@ def _colour(index: int, count: int) -> list[float]:
 
 
 def bridge_scenario(name: str, placements: Sequence[Placement], types: Mapping[str, Mapping],
-                    sensors: SensorSettings, seed: int = 0, margin_m: float = 3.0) -> dict:
+                    sensors: SensorSettings, seed: int = 0, margin_m: float = 3.0,
+                    obstacles: Mapping[str, Any] | None = None) -> dict:
     """The pybullet_bridge scenario of ``placements``; ``types`` are capability-file robot types
-    whose sensor names are bridge sensors."""
+    whose sensor names are bridge sensors; ``obstacles``: the bridge's ``obstacles`` section
+    (:attr:`Obstacles.section`)."""
     if not placements:
         raise ConfigError('robots: at least one robot')
     xs, ys = [p.x for p in placements], [p.y for p in placements]
@@ -130,8 +198,8 @@ def bridge_scenario(name: str, placements: Sequence[Placement], types: Mapping[s
         for sensor in types[placement.robot_type]['sensors']:
             kind = sensor['name']
             if kind == 'fiducial':
-                section[kind] = {'fov_deg': sensors.fiducial_fov_deg, 'range': sensors.fiducial_range_m,
-                                 'rate': sensors.rate_hz, 'active': False}
+                fov, reach = placement.fiducial or (sensors.fiducial_fov_deg, sensors.fiducial_range_m)
+                section[kind] = {'fov_deg': fov, 'range': reach, 'rate': sensors.rate_hz, 'active': False}
             elif kind == 'laser':
                 section[kind] = {'fov_deg': 180.0, 'beams': sensors.laser_beams, 'range': sensors.laser_range_m,
                                  'rate': sensors.rate_hz, 'active': False}
@@ -140,16 +208,19 @@ def bridge_scenario(name: str, placements: Sequence[Placement], types: Mapping[s
             else:
                 raise ConfigError(f'robot_types.{placement.robot_type}.sensors: {kind!r} is not a bridge sensor '
                                   f'(allowed: {", ".join(BRIDGE_SENSORS)})')
-        robots.append({'name': placement.robot, 'type': 'pioneer_3dx',
+        robots.append({'name': placement.robot, 'type': SIM_ROBOT_TYPE,
                        'pose': [placement.x, placement.y, round(math.radians(placement.heading_deg), 9)],
                        'color': _colour(index, len(placements)), 'sensors': section})
-    return {
+    scenario = {
         'name': name, 'seed': seed,
         'world': {'bounds': [min(xs) - margin_m, min(ys) - margin_m, max(xs) + margin_m, max(ys) + margin_m],
                   'walls': {'height': 0.3, 'thickness': 0.05}},
         'camera': {'frame_id': 'top_camera', 'rate': 1.0, 'width': 64, 'height': 64, 'altitude': 9.0},
         'mobile_robots': robots,
     }
+    if obstacles:
+        scenario['obstacles'] = dict(obstacles)
+    return scenario
 
 
 def capability_file(placements: Sequence[Placement], types: Mapping[str, Mapping],
@@ -189,5 +260,7 @@ def agent_parameter_file(common: Mapping[str, object], per_robot: Mapping[str, M
     return data
 
 
-__all__ = ['BRIDGE_SENSORS', 'COLUMN_TYPES', 'Placement', 'SensorSettings', 'agent_parameter_file', 'bridge_scenario',
-           'capability_file', 'capability_text', 'column_placements', 'column_sees_only_the_robot_ahead', 'placements_from_poses']
+__all__ = ['BRIDGE_SENSORS', 'COLUMN_TYPES', 'Obstacles', 'Placement', 'ROBOT_RADIUS_M', 'SENSOR_HEIGHT_M',
+           'SIM_ROBOT_TYPE', 'SensorSettings', 'agent_parameter_file', 'bridge_scenario', 'capability_file',
+           'capability_text', 'check_footprints', 'column_placements', 'column_sees_only_the_robot_ahead',
+           'parse_obstacles', 'placements_from_poses']

@@ -12,10 +12,10 @@ Sec. V-A-2, Fig. 7 / Table V, core          coalition-fig7          fig7 (fig7_p
 Sec. V-A-2, Fig. 7 / Table V, simulation    coalition-fig7 --mode   fig7_sim
                                             sim
 Sec. V-A-4, Fig. 9                          coalition-fig9          fig9 (column)
-Sec. V-A-5, Fig. 10/11 box pushing          coalition-boxpush       boxpush
+Sec. V-A-5, Fig. 10/11 box pushing          coalition-boxpush       boxpush (boxpush_inputs)
 ==========================================  ======================  ==================================
 
-Shared by them: :mod:`.configuration` (config/coalitions/ and the Fig. 7 scenario file),
+Shared by them: :mod:`.configuration` (config/coalitions/ and the Fig. 7 scenario format, with obstacles),
 :mod:`.sessions` (schema_agent nodes on the bridge through the orchestration library),
 :mod:`.coalition_bag` (statuses and channel traffic read back from a run's bag).
 ``scripts/bench coalition`` runs :mod:`.benchmark` (solution-space generation vs referents and robots). Every module
@@ -39,15 +39,27 @@ EXPERIMENTS = (
                                  'nodes on the bridge, recorded', choices=('core', 'sim'), default='core'),
                 Option('--loss', '--mode sim: message loss probability on the agent channel', type=float,
                        default=0.0),
-                Option('--scenario', 'scenario file (default config/coalitions/scenarios/fig7.yaml)'))),
+                Option('--scenario', 'scenario file: robots with poses, initiators, task, obstacles (boxes, map) '
+                                     '(default config/coalitions/scenarios/fig7.yaml)'),
+                Option('--team', 'team capability file (robot types with their sensors\' fov_deg/range_m); '
+                                 'default: the scenario\'s team'))),
     Experiment('coalition-fig9', f'{PAPER}, Sec. V-A-4, Fig. 9',
                'column of robots: time to find the coalition, messages (Fig. 9)',
                'coalition_agents.experiments.fig9',
-               (Option('--robots', 'column sizes to run (default: config/coalitions/scenarios/fig9_column.yaml)',
-                       type=int, nargs='+', metavar='N'),)),
+               (Option('--robots', 'column sizes to run (default: the column file\'s)',
+                       type=int, nargs='+', metavar='N'),
+                Option('--column', 'column file: sizes, spacing, fiducial, link, times '
+                                   '(default config/coalitions/scenarios/fig9_column.yaml)'))),
     Experiment('coalition-boxpush', f'{PAPER}, Sec. V-A-5, Fig. 10/11',
                'box pushing + navigation with executable coalitions, message loss 0 and 0.2 (sim)',
-               'coalition_agents.experiments.boxpush'),
+               'coalition_agents.experiments.boxpush',
+               (Option('--experiment', 'orchestration file: the bridge and one schema_agent node per robot with its '
+                                       'task and goal (default config/experiments/coalition_boxpush.yaml)'),
+                Option('--scenario', 'bridge scenario: the robots, the box named box, obstacles (default: the '
+                                     'experiment\'s)'),
+                Option('--team', 'team capability file (default: the experiment\'s capability_file)'),
+                Option('--agents', 'the agents\' shared ROS 2 parameter file (default '
+                                   'config/coalitions/boxpush_agents.yaml)'))),
 )
 
 

@@ -17,6 +17,16 @@ the bag (:func:`read_run`):
   between held two commitments (the CommitmentLedger forbids it; this checks it from outside;
   :func:`.coalition_bag.conflicting_commitments`).
 
+Inputs (each from the command line, every one validated before anything runs,
+:func:`boxpush_inputs`): ``--experiment`` the orchestration file (default
+config/experiments/coalition_boxpush.yaml: the bridge and one schema_agent node per robot, with
+each robot's task and goal), ``--scenario`` the bridge scenario (default the experiment's: the
+robots, the box named ``box``, ``obstacles``), ``--team`` the capability file (default the
+experiment's: every agent's ``capability_file``), ``--agents`` the agents' shared parameter file
+(default config/coalitions/boxpush_agents.yaml). The team's robots must stand in the scenario with
+the sensors their types name (and the same fiducial field of view where the team file gives one),
+one leader must push the box and one navigate.
+
 ``results.json``: ``runs`` (one per loss probability) with ``coalitions``, ``robots`` (final
 state, coalition and detail per robot), ``box`` and ``navigation`` (final ground-truth distance to
 the goal, ``completed`` as reported by the leader, ``reached`` = within
@@ -36,39 +46,16 @@ from collab_tools.core.bag_analysis import read_messages
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 from collab_tools.experiments.plots import plt
-from collab_tools.orchestration.experiment import load_experiment, parse_node, run_experiment
+from collab_tools.orchestration.experiment import run_experiment
 
 from ..core.agent_state import AgentState
 from ..core.errors import ConfigError
+from .boxpush_inputs import ACCEPTANCE_TOLERANCE_M, BOX, BOX_TASK, NAVIGATION_TASK, agent_nodes, boxpush_inputs
 from .coalition_bag import conflicting_commitments, kind_totals, read_coalition_bag
 
-EXPERIMENT = 'coalition_boxpush.yaml'
-BOX = 'box'
-#: how close (m) the box and the navigating robot must end to their goals (ground truth)
-ACCEPTANCE_TOLERANCE_M = 0.3
 GROUND_TRUTH = '/ground_truth/bodies'
-#: The two tasks of the scenario: leader robot -> what it does.
-BOX_TASK, NAVIGATION_TASK = 'box_pushing_to_goal', 'navigation'
 #: The agent channel's loss probabilities, one run each.
 LOSSES = (0.0, 0.2)
-
-
-def agent_nodes(experiment: dict) -> dict[str, dict]:
-    """robot -> merged inline parameters of its schema_agent node in the experiment file, and the
-    node's orchestration label (``node``). The robot is the node's namespace (/<robot>)."""
-    agents = {}
-    for index, node in enumerate(experiment['nodes']):
-        if node.get('executable') != 'schema_agent':
-            continue
-        params: dict = {}
-        for entry in node.get('parameters', []):
-            if isinstance(entry, dict):
-                params.update(entry)
-        robot = str(node.get('namespace') or '').strip('/').split('/')[-1]
-        if not robot:
-            raise ValueError(f'experiment nodes[{index}] (schema_agent): needs namespace: /<robot>')
-        agents[robot] = {**params, 'robot': robot, 'node': parse_node(node, f'nodes[{index}]').label}
-    return agents
 
 
 def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
@@ -159,19 +146,12 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     summary.md and each run's trajectories.png (in ``loss_<p>/``) in the run directory."""
     config_dir, run_dir, seed, log = Path(request.config_dir), Path(request.run_dir), request.seed, request.log
     losses = LOSSES
-    experiment = load_experiment(Path(config_dir) / 'experiments' / EXPERIMENT)
-    agents = agent_nodes(experiment)
-    # The run ends when the leader that waits for the other one exits (exit_after).
-    last = next(params for params in agents.values() if [r for r in params.get('exit_after', []) if r])
-    experiment['until'] = {'exit': last['node']}
+    experiment, agents, goal_tolerance = boxpush_inputs(
+        config_dir, request.option('experiment'), request.option('scenario'), request.option('team'),
+        request.option('agents'))
     Path(run_dir).mkdir(parents=True, exist_ok=True)
     experiment_path = Path(run_dir) / 'experiment.yaml'
     experiment_path.write_text(yaml.safe_dump(experiment, sort_keys=False))
-    shared = yaml.safe_load((Path(config_dir) / 'coalitions' / 'boxpush_agents.yaml').read_text())
-    goal_tolerance = float(shared['/**']['ros__parameters']['goal_tolerance'])
-    if goal_tolerance > ACCEPTANCE_TOLERANCE_M:
-        raise ConfigError(f'boxpush_agents.yaml goal_tolerance: the leaders must stop within the acceptance '
-                         f'tolerance {ACCEPTANCE_TOLERANCE_M} m (got {goal_tolerance})')
     quiet = lambda _text: None  # noqa: E731
     runs = []
     for index, loss in enumerate(losses):
@@ -220,4 +200,4 @@ def summary_markdown(results: dict) -> str:
     return '\n'.join(lines) + '\n'
 
 
-__all__ = ['ACCEPTANCE_TOLERANCE_M', 'LOSSES', 'agent_nodes', 'plot_run', 'read_run', 'run', 'summary_markdown']
+__all__ = ['ACCEPTANCE_TOLERANCE_M', 'LOSSES', 'agent_nodes', 'boxpush_inputs', 'plot_run', 'read_run', 'run', 'summary_markdown']

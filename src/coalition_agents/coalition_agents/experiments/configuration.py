@@ -2,9 +2,18 @@
 
 * :class:`CoalitionConfig` -- ``config/coalitions/`` (schema library, costs, tasks) loaded once;
 * :func:`load_scenario` -- a scenario of robots with poses for the geometric sensing model
-  (``config/coalitions/scenarios/fig7.yaml``: the team file, the task, the initiators, each
-  geometric sensor's field of view and range, every robot's pose, the goals and the paper's
-  Table V for the side-by-side comparison). Errors name the file and the field.
+  (``config/coalitions/scenarios/fig7.yaml``: the team file, the task, the initiators, default
+  fields of view per sensor, every robot's pose, the obstacles, the goals and the paper's Table V
+  for the side-by-side comparison). Errors name the file and the field. The format is documented
+  in ``config/coalitions/scenarios/fig7.yaml``; in short:
+
+  - ``team``: the capability file; relative to the scenario file's directory, else (the shipped
+    scenarios' convention) to ``config/coalitions/``; ``team_path`` (``--team``) replaces it.
+    Each robot's geometric sensor takes its field of view from its type's sensor entry
+    (``fov_deg``, ``range_m``); ``sensors`` gives defaults for types that give none.
+  - ``obstacles``: the bridge's ``obstacles`` section (``boxes``, ``map``; the bridge's parser),
+    relative paths from the scenario file; boxes taller than the simulated sensor (0.12 m) block
+    lines of sight, a robot whose footprint overlaps an obstacle is refused.
 """
 from __future__ import annotations
 
@@ -19,6 +28,7 @@ from ..core import (
     load_tasks,
 )
 from ..core.geometric_sensing import FieldOfView, GeometricSensing, Pose
+from ..core.sim_scenarios import ROBOT_RADIUS_M, Obstacles, check_footprints, parse_obstacles
 
 #: Where a ``config_dir`` keeps the coalition files (``scripts/experiment`` passes the workspace's config/).
 COALITIONS = 'coalitions'
@@ -59,6 +69,20 @@ class Scenario:
     poses: Mapping[str, Pose]
     goals: Mapping[str, tuple[float, float]]
     paper_table5: Mapping[str, dict]
+    obstacles: Obstacles = Obstacles()
+    team_file: Path | None = None
+
+    def sensing(self, blind: bool = False) -> GeometricSensing:
+        """The geometric sensing model of this scenario (per-robot views, obstacles and the other
+        robots' bodies occlude, as in the bridge); ``blind``: configuration ignored."""
+        return GeometricSensing(self.team, self.poses, self.sensors, self.obstacles.occluding, ROBOT_RADIUS_M,
+                                blind=blind)
+
+    def views(self) -> dict[str, dict[str, FieldOfView]]:
+        """robot -> geometric sensor -> its field of view (own or the scenario's default)."""
+        sensing = self.sensing()
+        return {robot: {sensor: sensing.view_of(robot, sensor) for sensor in sorted(sensing.geometric_sensors)
+                        if any(s.sensor == sensor for s in self.team[robot].sensors)} for robot in self.team}
 
 
 def _point(value: object, path: str) -> tuple[float, float]:
@@ -75,11 +99,27 @@ def _robot_name(value: object, path: str, team: Mapping[str, RobotCapabilities])
     return str(value)
 
 
-def scenario_from_dict(data: object, config: CoalitionConfig, path: Path) -> Scenario:
-    section = Fields(data, '', ('team', 'task', 'initiators', 'sensors', 'robots', 'goals', 'paper_table5'),
-                     error=ConfigError)
-    team_file = section.string('team')
-    team = load_capability_file(config.directory / team_file, config.library).robots
+def resolve_team(team: str, scenario_path: Path, config: CoalitionConfig) -> Path:
+    """The scenario's ``team`` file: relative to the scenario's directory, else to config/coalitions/."""
+    candidates = [Path(scenario_path).parent / team, config.directory / team]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise ConfigError(f"team: no file {team!r} next to the scenario nor in {config.directory} "
+                      f"(tried {', '.join(str(c) for c in candidates)})")
+
+
+def scenario_from_dict(data: object, config: CoalitionConfig, path: Path,
+                       team_path: str | Path | None = None) -> Scenario:
+    section = Fields(data, '', ('team', 'task', 'initiators', 'sensors', 'robots', 'goals', 'paper_table5',
+                                'obstacles'), error=ConfigError)
+    if team_path is not None:
+        team_file = Path(team_path)
+        if not team_file.is_file():
+            raise ConfigError(f'--team: no file {str(team_path)!r}')
+    else:
+        team_file = resolve_team(section.string('team'), path, config)
+    team = load_capability_file(team_file, config.library).robots
     if not team:
         raise ConfigError(f'team: {team_file} names no robots (its robots: mapping is empty)')
     task = config.task(section.name('task'))
@@ -97,6 +137,7 @@ def scenario_from_dict(data: object, config: CoalitionConfig, path: Path) -> Sce
         if fov > 360.0:
             raise ConfigError(f"{entry.path_of('fov_deg')}: must be in (0, 360] (got {fov})")
         sensors[sensor] = FieldOfView(fov, entry.number('range_m', gt=0.0))
+    obstacles = parse_obstacles(section.raw('obstacles', None), Path(path).parent, section.path_of('obstacles'))
     poses = {}
     for entry_path, robot, value in section.entries('robots'):
         _robot_name(robot, entry_path, team)
@@ -106,6 +147,7 @@ def scenario_from_dict(data: object, config: CoalitionConfig, path: Path) -> Sce
     missing = [robot for robot in team if robot not in poses]
     if missing:
         raise ConfigError(f'robots: no pose for {", ".join(missing)} (every robot of {team_file} needs one)')
+    check_footprints({robot: (pose.x, pose.y) for robot, pose in poses.items()}, obstacles)
     goals = {_robot_name(robot, p, team): _point(v, p) for p, robot, v in section.entries('goals', [])}
     paper = {}
     for entry_path, robot, value in section.entries('paper_table5', []):
@@ -117,15 +159,21 @@ def scenario_from_dict(data: object, config: CoalitionConfig, path: Path) -> Sce
         paper[robot] = {'possible': int(possible),
                         'executable_costs': [check_number(v, p, error=ConfigError)
                                              for p, v in entry.items('executable_costs')]}
-    return Scenario(path, team, task, initiators, sensors, poses, goals, paper)
+    return Scenario(path, team, task, initiators, sensors, poses, goals, paper, obstacles, team_file)
 
 
-def load_scenario(path: str | Path, config: CoalitionConfig) -> Scenario:
-    """Read and validate a scenario; errors name the file and the field."""
+def load_scenario(path: str | Path, config: CoalitionConfig, team_path: str | Path | None = None) -> Scenario:
+    """Read and validate a scenario (``team_path`` replaces its ``team``); errors name the file and
+    the field."""
     path = Path(path)
-    scenario = load_config_file(path, lambda data: scenario_from_dict(data, config, path), error=ConfigError)
-    GeometricSensing(scenario.team, scenario.poses, scenario.sensors)  # every geometric sensor has a FOV
+    scenario = load_config_file(path, lambda data: scenario_from_dict(data, config, path, team_path),
+                                error=ConfigError)
+    try:
+        scenario.sensing()  # every geometric sensor has a field of view
+    except ConfigError as exc:
+        raise ConfigError(f'{path}: {exc}') from None
     return scenario
 
 
-__all__ = ['COALITIONS', 'CoalitionConfig', 'FIG7_SCENARIO', 'Scenario', 'load_scenario', 'scenario_from_dict']
+__all__ = ['COALITIONS', 'CoalitionConfig', 'FIG7_SCENARIO', 'Scenario', 'load_scenario', 'resolve_team',
+           'scenario_from_dict']

@@ -8,9 +8,11 @@ types of Table IV considers: the same search with every fiducial seeing every ro
 of distinct member sets, with the cheapest coalition cost of each set.
 
 ``--mode core`` (this module, :func:`run_core`): what each fiducial sees comes from the geometric
-sensing model (:class:`~..core.geometric_sensing.GeometricSensing`: field of view and range, no
-occlusion, no noise) over the poses of ``config/coalitions/scenarios/fig7.yaml`` (``--scenario``),
-and the team's request/offer exchange runs in one process (:class:`~..core.CoalitionSearch`).
+sensing model (:class:`~..core.geometric_sensing.GeometricSensing`: each robot's field of view
+and range, line of sight blocked by the scenario's obstacles and by other robots, as in the bridge;
+no noise) over the poses of ``config/coalitions/scenarios/fig7.yaml`` (``--scenario``, ``--team``
+replacing its team file), and the team's request/offer exchange runs in one process
+(:class:`~..core.CoalitionSearch`).
 Acceptance: every initiator's counts and costs match the paper's Table V (``matches_paper``).
 
 ``--mode sim`` (:mod:`.fig7_sim`): the same poses with schema_agent nodes on the bridge (``--loss``
@@ -25,7 +27,7 @@ from typing import Callable
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 
 from ..core import CoalitionResult, CoalitionSearch, CoalitionSolution, ConfigError
-from ..core.geometric_sensing import GeometricSensing, configuration_blind
+from ..core.geometric_sensing import GeometricSensing
 from .configuration import COALITIONS, FIG7_SCENARIO, CoalitionConfig, load_scenario
 from .fig7_plots import plot_fig7
 
@@ -42,7 +44,8 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     if mode == 'sim':
         from .fig7_sim import run_sim
         return run_sim(request)
-    return run_core(Path(request.config_dir), Path(request.run_dir), request.log, request.option('scenario'))
+    return run_core(Path(request.config_dir), Path(request.run_dir), request.log, request.option('scenario'),
+                    request.option('team'))
 
 
 def _two_robot(result: CoalitionResult) -> list[CoalitionSolution]:
@@ -54,16 +57,27 @@ def _coalition_entry(coalition: CoalitionSolution) -> dict:
             'description': coalition.describe()}
 
 
+def load_fig7_scenario(config_dir: Path, scenario_path: str | Path | None = None,
+                       team_path: str | Path | None = None):
+    """The coalition configuration and the scenario (``--scenario``, default fig7.yaml; ``--team``)."""
+    config = CoalitionConfig.load(Path(config_dir) / COALITIONS)
+    path = Path(scenario_path) if scenario_path else config.directory / FIG7_SCENARIO
+    if not path.is_file():
+        raise ConfigError(f'--scenario: no file {str(path)!r}')
+    return config, load_scenario(path, config, team_path)
+
+
 def run_core(config_dir: Path, run_dir: Path, log: Log = print,
-             scenario_path: str | Path | None = None) -> ExperimentResult:
+             scenario_path: str | Path | None = None, team_path: str | Path | None = None) -> ExperimentResult:
     """Fig. 7 / Table V in the core: table5.md and fig7.png in ``run_dir``; ``config_dir`` is the
     workspace's config/ (the coalition files under coalitions/)."""
-    config = CoalitionConfig.load(Path(config_dir) / COALITIONS)
-    scenario = load_scenario(Path(scenario_path) if scenario_path else config.directory / FIG7_SCENARIO, config)
-    sensing = GeometricSensing(scenario.team, scenario.poses, scenario.sensors)
+    config, scenario = load_fig7_scenario(config_dir, scenario_path, team_path)
+    sensing = scenario.sensing()
     sightings = sensing.sightings()
-    log(f'[coalition-fig7] {len(scenario.team)} robots, {len(sightings)} sightings with '
-        + ', '.join(f'{s} (FOV {v.fov_deg:g} deg, {v.range_m:g} m)' for s, v in scenario.sensors.items()))
+    views = sorted({f'{s} (FOV {v.fov_deg:g} deg, {v.range_m:g} m)'
+                    for per_robot in scenario.views().values() for s, v in per_robot.items()})
+    log(f'[coalition-fig7] {len(scenario.team)} robots, {len(scenario.obstacles.boxes)} obstacles, '
+        f'{len(sightings)} sightings with ' + ', '.join(views))
 
     def search(model: GeometricSensing, what: str) -> tuple[dict[str, CoalitionResult], dict]:
         begin = time.perf_counter()
@@ -78,7 +92,7 @@ def run_core(config_dir: Path, run_dir: Path, log: Log = print,
         return results, info
 
     executable, executable_info = search(sensing, 'geometric (executable)')
-    blind_model = GeometricSensing(scenario.team, scenario.poses, configuration_blind(scenario.sensors))
+    blind_model = scenario.sensing(blind=True)
     possible, possible_info = search(blind_model, 'configuration-blind (possible)')
 
     table5 = []
@@ -129,6 +143,15 @@ def run_core(config_dir: Path, run_dir: Path, log: Log = print,
         'helpers_shared_by_initiators': {h: r for h, r in helpers.items() if len(r) > 1},
         'search': {'executable': executable_info, 'possible': possible_info},
     }
+    own = {robot: {s: {'fov_deg': v.fov_deg, 'range_m': v.range_m} for s, v in per_robot.items()}
+           for robot, per_robot in scenario.views().items()
+           if any(scenario.team[robot].sensor_view(s) is not None for s in per_robot)}
+    if own:  # robots whose team file gives their sensor's own field of view
+        results['robot_sensors'] = own
+    if scenario.obstacles.boxes:
+        results['obstacles'] = [{'name': b.name, 'center': list(b.center), 'size': list(b.size), 'yaw': b.yaw,
+                                 'height': b.height, 'occludes': b in scenario.obstacles.occluding}
+                                for b in scenario.obstacles.boxes]
     run_dir.mkdir(parents=True, exist_ok=True)
     table = table5_markdown(results)
     (run_dir / 'table5.md').write_text(table)
@@ -169,13 +192,15 @@ def table5_markdown(results: dict) -> str:
               '- The paper gives no coordinates: the poses in the scenario file are ours, chosen to have the '
               'properties the text states (distant clusters, R behind one helper and seen by another, G seeing '
               'one helper with helper 5 close but out of range, Y seeing two helpers).',
-              '- Visibility is purely geometric (field of view and range, no occlusion, no noise) and the '
-              'team\'s request/offer exchange runs in one process; the chosen coalition is each robot\'s '
-              'cheapest executable one (the negotiation that sets it up belongs to the nodes).',
+              '- Visibility is geometric (each robot\'s field of view and range; the line of sight is blocked by '
+              'the scenario\'s obstacles taller than the sensor and by other robots\' bodies, the rule the '
+              'bridge\'s fiducial applies; no noise) and the team\'s request/offer exchange runs in one process; '
+              'the chosen coalition is each robot\'s cheapest executable one (the negotiation that sets it up '
+              'belongs to the nodes).',
               '', '## Chosen coalitions', '']
     for robot, chosen in results['chosen'].items():
         lines += ['```', chosen['description'] if chosen else f'{robot}: no executable coalition', '```']
     return '\n'.join(lines) + '\n'
 
 
-__all__ = ['MODES', 'run', 'run_core', 'table5_markdown']
+__all__ = ['MODES', 'load_fig7_scenario', 'run', 'run_core', 'table5_markdown']

@@ -13,7 +13,7 @@ from typing import Iterator, Sequence
 
 from collab_tools.experiments import plots
 from collab_tools.experiments.plots import plt
-from matplotlib.patches import Ellipse, Wedge
+from matplotlib.patches import Ellipse, Polygon, Wedge
 
 from ..core.geometric_sensing import GeometricSensing, Pose
 from .configuration import Scenario
@@ -26,18 +26,19 @@ def plot_fig7(scenario: Scenario, sensing: GeometricSensing, results: dict, path
     colours = {robot: _INITIATOR_COLOURS[i % len(_INITIATOR_COLOURS)] for i, robot in enumerate(scenario.initiators)}
     xs = [p.x for p in scenario.poses.values()] + [g[0] for g in scenario.goals.values()]
     ys = [p.y for p in scenario.poses.values()] + [g[1] for g in scenario.goals.values()]
-    reach = max((v.range_m for v in scenario.sensors.values()), default=1.0)
+    views = scenario.views()
+    reach = max((v.range_m for per_robot in views.values() for v in per_robot.values()), default=1.0)
     fig, axes = plt.subplots(1, 2, figsize=(17, 8))
 
     def base(ax, fov: bool) -> None:
+        draw_obstacles(ax, scenario)
         for robot, pose in scenario.poses.items():
             colour = colours.get(robot, '#555555')
             if fov:
-                for sensor, view in scenario.sensors.items():
-                    if any(s.sensor == sensor for s in scenario.team[robot].sensors):
-                        ax.add_patch(Wedge((pose.x, pose.y), view.range_m, pose.heading_deg - view.fov_deg / 2,
-                                           pose.heading_deg + view.fov_deg / 2, fc=colour, alpha=0.07, ec=colour,
-                                           lw=0.6))
+                for view in views[robot].values():
+                    ax.add_patch(Wedge((pose.x, pose.y), view.range_m, pose.heading_deg - view.fov_deg / 2,
+                                       pose.heading_deg + view.fov_deg / 2, fc=colour, alpha=0.07, ec=colour,
+                                       lw=0.6))
             heading = math.radians(pose.heading_deg)
             ax.annotate('', xy=(pose.x + 1.2 * math.cos(heading), pose.y + 1.2 * math.sin(heading)),
                         xytext=(pose.x, pose.y), arrowprops={'arrowstyle': '->', 'color': 'black', 'lw': 1.2})
@@ -60,8 +61,9 @@ def plot_fig7(scenario: Scenario, sensing: GeometricSensing, results: dict, path
         ax.annotate('', xy=(b.x, b.y), xytext=(a.x, a.y),
                     arrowprops={'arrowstyle': '->', 'color': '#444444', 'lw': 1.0, 'shrinkA': 9, 'shrinkB': 9,
                                 'ls': '--'})
-    views = ', '.join(f'{s}: FOV {v.fov_deg:g}°, {v.range_m:g} m' for s, v in scenario.sensors.items())
-    ax.set_title(f'(a) poses and headings, {views} (wedges);\ndashed arrow: observer → robot it sees; '
+    shown = ', '.join(sorted({f'{s}: FOV {v.fov_deg:g}°, {v.range_m:g} m'
+                              for per_robot in views.values() for s, v in per_robot.items()}))
+    ax.set_title(f'(a) poses and headings, {shown} (wedges);\ndashed arrow: observer → robot it sees; '
                  f'squares: goals', fontsize=10)
 
     ax = axes[1]
@@ -112,14 +114,24 @@ def _enclose(ax, poses: Sequence[Pose], colour: str) -> None:
 
 
 
+def draw_obstacles(ax, scenario: Scenario) -> None:
+    """The scenario's obstacles: dark if they block lines of sight, light if lower than the sensor."""
+    for box in scenario.obstacles.boxes:
+        occludes = box in scenario.obstacles.occluding
+        ax.add_patch(Polygon(box.corners(), closed=True, fc='#333333' if occludes else '#bbbbbb', ec='black',
+                             lw=0.5, alpha=0.8))
+
+
 def plot_fig7_sim(scenario: Scenario, results: dict, path: Path) -> None:
     """The poses and the coalitions the nodes set up (ellipse per coalition), with their costs."""
     colours = ('#d62728', '#2ca02c', '#e6b800', '#1f77b4', '#9467bd')
     fig, ax = plt.subplots(figsize=(9, 8))
-    view = next(iter(scenario.sensors.values()))
+    views = scenario.views()
+    draw_obstacles(ax, scenario)
     for robot, pose in scenario.poses.items():
-        ax.add_patch(Wedge((pose.x, pose.y), view.range_m, pose.heading_deg - view.fov_deg / 2,
-                           pose.heading_deg + view.fov_deg / 2, fc='grey', alpha=0.06, ec='grey', lw=0.5))
+        for view in views[robot].values():
+            ax.add_patch(Wedge((pose.x, pose.y), view.range_m, pose.heading_deg - view.fov_deg / 2,
+                               pose.heading_deg + view.fov_deg / 2, fc='grey', alpha=0.06, ec='grey', lw=0.5))
         ax.plot(pose.x, pose.y, 'o', ms=15, mfc='white', mec='black')
         ax.text(pose.x, pose.y, pose.label, ha='center', va='center', fontsize=9, fontweight='bold')
     for index, row in enumerate(results['leaders']):

@@ -3,12 +3,14 @@
 Paper: Section V-A-2, Fig. 7(b) and Table V (``shared/papers/iq_asymtre_coalitions.txt``): the
 coalitions the robots set up in the three clusters. The core experiment (:func:`.fig7.run_core`:
 possible vs executable, geometric sensing) runs first, into ``core/``; then the same poses run in
-simulation (``sim/``: the bridge's fiducials with occlusion, ``--loss`` on the agent channel),
+simulation (``sim/``: the bridge's fiducials with occlusion, each robot's own field of view, the
+scenario's obstacles in the generated bridge scenario, ``--loss`` on the agent channel),
 recorded; the coalitions the nodes set up are read from the bag and compared with the core's
 cheapest executable ones. The agents run on the bridge's clock (the result is not a time).
 
-Acceptance: every initiator committed to a coalition and no robot held two at once
-(``matches_core`` is reported beside it).
+Acceptance: every initiator the core gives an executable coalition committed to one, none of
+the others did (a wall the core sees is a wall in the bridge), and no robot held conflicting
+coalitions at once (sharing is allowed; ``matches_core`` is reported beside it).
 """
 from __future__ import annotations
 
@@ -23,11 +25,10 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, wr
 
 from ..core.errors import ConfigError
 from ..core.sim_scenarios import SensorSettings, placements_from_poses
-from .coalition_bag import CoalitionRun, commitments, conflicting_commitments, kind_totals, leader_timeline
+from .coalition_bag import CoalitionRun, commitment_check, commitments, kind_totals, leader_timeline
 from .coalition_bag import read_coalition_bag
-from .configuration import COALITIONS, FIG7_SCENARIO, CoalitionConfig, load_scenario
 from .fig7_plots import plot_fig7_sim
-from .sessions import AgentSetup, run_session
+from .sessions import AgentSetup, check_session_inputs, run_session
 
 #: The paper's sensor names in the Fig. 7 team file -> the bridge's.
 FIG7_SENSOR_NAMES = {'localization': 'gps'}
@@ -43,54 +44,61 @@ def fig7_sim_result(run: CoalitionRun, core: Mapping[str, dict]) -> dict:
         expected = core[robot]
         rows.append({**timeline.to_dict(), 'core_members': expected and expected['members'],
                      'core_cost': expected and expected['cost'],
-                     'matches_core': expected is not None and timeline.state == 'committed'
-                     and sorted(timeline.members) == sorted(expected['members'])
-                     and timeline.cost is not None and abs(timeline.cost - expected['cost']) < 1e-6})
-    return {'leaders': rows, 'commitments': commitments(run), 'conflicting_commitments': conflicting_commitments(run),
+                     'matches_core': (timeline.state != 'committed') if expected is None else (
+                         timeline.state == 'committed' and sorted(timeline.members) == sorted(expected['members'])
+                         and timeline.cost is not None and abs(timeline.cost - expected['cost']) < 1e-6)})
+    check = commitment_check(run)  # sharing (one reading, one value to several leaders) is not a conflict
+    return {'leaders': rows, 'commitments': commitments(run), 'conflicting_commitments': check['conflicting'],
+            'shared_commitments': check['shared'], 'robots_serving_several': check['robots_serving_several'],
             'messages': len(run.messages), 'ros_messages': run.ros_messages, 'kinds': kind_totals(run)}
 
 
 def run_sim(request: ExperimentRequest) -> ExperimentResult:
     """Fig. 7 / Table V in simulation (see the module docstring); table5_sim.md and fig7_sim.png in
     the run directory, the core run (with its own results.json) in ``core/``, the session in ``sim/``."""
-    from .fig7 import run_core
+    from .fig7 import load_fig7_scenario, run_core
     config_dir, run_dir, log = Path(request.config_dir), Path(request.run_dir), request.log
     loss = float(request.option('loss', 0.0))
     if not 0.0 <= loss <= 1.0:
         raise ConfigError(f'--loss: must be in [0, 1] (got {loss})')
-    scenario_path = request.option('scenario')
+    scenario_path, team_path = request.option('scenario'), request.option('team')
     search_time_s = SEARCH_TIME_S
+    # Every input is validated before anything runs (the core run below reads the same files).
+    _, scenario = load_fig7_scenario(config_dir, scenario_path, team_path)
+    views = scenario.views()
+    # The team file's robot types as data (capability_file renames their sensors for the bridge).
+    types = yaml.safe_load(Path(scenario.team_file).read_text())['robot_types']
+    robot_types = {robot: caps.name for robot, caps in scenario.team.items()}
+    fiducials = {robot: (v['fiducial'].fov_deg, v['fiducial'].range_m) for robot, v in views.items() if 'fiducial' in v}
+    placements = placements_from_poses({r: (p.x, p.y, p.heading_deg) for r, p in scenario.poses.items()}, robot_types,
+                                       fiducials)
+    check_session_inputs(placements, types, FIG7_SENSOR_NAMES, scenario.obstacles.section)
     core_request = replace(request, run_dir=run_dir / 'core', options={**request.options, 'mode': 'core'})
     began = time.monotonic()
-    core_result = run_core(config_dir, core_request.run_dir, log, scenario_path)
+    core_result = run_core(config_dir, core_request.run_dir, log, scenario_path, team_path)
     _write_core_results(core_request, core_result, time.monotonic() - began)
     core = core_result.data
-    config = CoalitionConfig.load(config_dir / COALITIONS)
-    scenario = load_scenario(Path(scenario_path) if scenario_path else config.directory / FIG7_SCENARIO, config)
-    # The team file's robot types as data (capability_file renames their sensors for the bridge).
-    team_file = config.directory / yaml.safe_load(Path(scenario.path).read_text())['team']
-    types = yaml.safe_load(team_file.read_text())['robot_types']
-    robot_types = {robot: caps.name for robot, caps in scenario.team.items()}
-    placements = placements_from_poses({r: (p.x, p.y, p.heading_deg) for r, p in scenario.poses.items()}, robot_types)
-    view = scenario.sensors['fiducial']
-    sensors = SensorSettings(fiducial_fov_deg=view.fov_deg, fiducial_range_m=view.range_m)
+    sensors = SensorSettings()  # every fiducial has its own view (above)
     setup = AgentSetup(task=scenario.task.name, leaders=scenario.initiators, search_time_s=search_time_s,
                        loss_probability=loss, use_sim_time=True, seed=request.seed, timeout_s=240.0)
     log(f'[coalition-fig7 sim] {len(placements)} robots on the bridge, loss {loss:g}, search_time {search_time_s:g} s')
     result = run_session(run_dir / 'sim', config_dir, 'fig7_clusters', placements, types, sensors, setup,
-                         sensor_names=FIG7_SENSOR_NAMES, log=None)
+                         sensor_names=FIG7_SENSOR_NAMES, log=None, obstacles=scenario.obstacles.section)
     if result.bag is None or not result.bag.exists():
         raise RuntimeError(f'fig7 sim: no bag ({result.message}); logs in {run_dir / "sim" / "logs"}')
     sim = fig7_sim_result(read_coalition_bag(result.bag), core['chosen'])
     results = {'mode': 'sim', 'loss_probability': loss, 'search_time_s': search_time_s,
                'exit_code': result.exit_code, 'table5_core': core['table5'], 'core_chosen': core['chosen'], **sim}
     acceptance = {
-        'every_initiator_committed': all(r['state'] == 'committed' for r in sim['leaders']),
+        # an initiator the core gives no executable coalition (a wall in between) must not form one
+        'every_initiator_committed': all(r['state'] == 'committed' for r in sim['leaders'] if r['core_members']),
+        'none_without_core_coalition': all(r['state'] != 'committed' for r in sim['leaders']
+                                           if not r['core_members']),
         'matches_core': all(r['matches_core'] for r in sim['leaders']),
-        'no_robot_in_two_coalitions': not sim['conflicting_commitments']
-        and all(len(c) <= 1 for c in sim['commitments'].values())}
+        'no_conflicting_commitments': not sim['conflicting_commitments']}
     # matches_core is reported, not required: the bridge's occlusion may rule out a core coalition.
-    passed = acceptance['every_initiator_committed'] and acceptance['no_robot_in_two_coalitions']
+    passed = (acceptance['every_initiator_committed'] and acceptance['none_without_core_coalition']
+              and acceptance['no_conflicting_commitments'])
     for row in sim['leaders']:
         log(f'[coalition-fig7 sim] {row["robot"]}: {row["state"]} {", ".join(row["members"]) or "-"} cost '
             f'{row["cost"]} (core: {row["core_members"] and ", ".join(row["core_members"])} {row["core_cost"]}); '
@@ -123,7 +131,9 @@ def fig7_sim_markdown(results: dict, acceptance: dict) -> str:
                      f'{", ".join(row["core_members"] or [])} ({row["core_cost"]}) | {row["matches_core"]} | '
                      f'{row["found_s"]} | {row["formed_s"]} |')
     lines += ['', f'Commitments per robot (from the bag\'s statuses): {json.dumps(results["commitments"])}',
-              f'Robots committed to two coalitions at once: {json.dumps(results["conflicting_commitments"]) or "none"}',
+              f'Robots serving several coalitions at once (sharing): {json.dumps(results.get("shared_commitments", {}))} '
+              f'({results.get("robots_serving_several", 0)} robot(s)); conflicting commitments: '
+              f'{json.dumps(results["conflicting_commitments"]) or "none"}',
               f'Channel messages: {results["messages"]} logical ({json.dumps(results["kinds"])}) in '
               f'{results.get("ros_messages", 0)} ROS messages (batches; the loss probability applies per batch: '
               'a lost batch loses all its messages, which the retries re-send)',

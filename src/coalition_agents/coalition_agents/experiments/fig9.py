@@ -6,7 +6,8 @@ the column grows, with the paper's link delay N(3.85 ms, 5.05 ms); and the messa
 of the ten-robot column send and receive over time. The paper's text gives about 28 s for ten
 robots (with fixed 0.2 s gaps between steps; ours is event-driven).
 
-One recorded run per column size (``--robots``, default: ``config/coalitions/scenarios/fig9_column.yaml``)
+One recorded run per column size (``--robots``, default: the column file ``--column``, itself by
+default ``config/coalitions/scenarios/fig9_column.yaml``)
 with schema_agent nodes on the bridge (:mod:`.sessions`), read back from its bag (:mod:`.column`,
 :mod:`.coalition_bag`). The agents run on the wall clock (``use_sim_time`` false): the paper
 reports wall-clock times and the bridge may fall behind real time with 20 robots, which would make
@@ -26,6 +27,7 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 from collab_tools.experiments.plots import plt
 from collab_tools.experiments.sweep import sweep
 
+from ..core.errors import ConfigError
 from ..core.sim_scenarios import COLUMN_TYPES, column_placements
 from .coalition_bag import read_coalition_bag
 from .column import COLUMN_CONFIG, column_result, load_column_config
@@ -36,7 +38,13 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     """Fig. 9: one recorded run per column size (``robots`` option, else the config's); fig9.md and
     plots in the run directory, each run in ``n<robots>/``."""
     config_dir, run_dir, log = Path(request.config_dir), Path(request.run_dir), request.log
-    config = load_column_config(config_dir / 'coalitions' / COLUMN_CONFIG)
+    column_file = request.option('column')
+    if column_file is not None and not Path(column_file).is_file():
+        raise ConfigError(f'--column: no file {column_file!r}')
+    config = load_column_config(Path(column_file) if column_file else config_dir / 'coalitions' / COLUMN_CONFIG)
+    bad = [n for n in request.option('robots') or () if isinstance(n, bool) or not isinstance(n, int) or n < 2]
+    if bad:
+        raise ConfigError(f'--robots: column sizes must be integers >= 2 (got {bad[0]!r})')
     wanted = tuple(request.option('robots') or config.robots)
 
     def run_column(case: tuple[int, int]) -> dict:

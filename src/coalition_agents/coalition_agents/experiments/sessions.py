@@ -88,19 +88,37 @@ def host_groups(robots: Sequence[str], leaders: Sequence[str], processes: int) -
     return groups
 
 
+def check_session_inputs(placements: Sequence[Placement], types: Mapping[str, Mapping],
+                         sensor_names: Mapping[str, str] | None = None, obstacles: Mapping | None = None,
+                         sensors: SensorSettings | None = None) -> dict:
+    """The bridge scenario :func:`run_session` would generate, validated by the bridge's own parser
+    before anything runs (a ConfigError naming the field otherwise)."""
+    from pybullet_bridge.core.scenario import parse_scenario
+    from collab_tools.core.errors import ConfigurationError
+    team = capability_file(placements, types, sensor_names)
+    scenario = bridge_scenario('check', placements, team['robot_types'], sensors or SensorSettings(),
+                               obstacles=obstacles)
+    try:
+        parse_scenario(scenario, Path.cwd())
+    except ConfigurationError as exc:
+        raise ConfigError(f'generated bridge scenario: {exc}') from None
+    return scenario
+
+
 def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence[Placement],
                 types: Mapping[str, Mapping], sensors: SensorSettings, setup: AgentSetup,
-                sensor_names: Mapping[str, str] | None = None, log: Log | None = None):
-    """Generate the run (the bridge scenario file, the agents' parameters inline) and run
-    config/experiments/coalition_agents.yaml; returns the SessionRunResult (its ``bag`` is the
-    recorded run)."""
+                sensor_names: Mapping[str, str] | None = None, log: Log | None = None,
+                obstacles: Mapping | None = None):
+    """Generate the run (the bridge scenario file with ``obstacles``, the bridge's ``obstacles``
+    section; the agents' parameters inline) and run config/experiments/coalition_agents.yaml;
+    returns the SessionRunResult (its ``bag`` is the recorded run)."""
     from collab_tools.orchestration.experiment import load_experiment, run_experiment
     run_dir, config_dir = Path(run_dir).resolve(), Path(config_dir).resolve()
     run_dir.mkdir(parents=True, exist_ok=True)
     coalitions = config_dir / 'coalitions'
     team = capability_file(placements, types, sensor_names)
     renamed = {name_: entry for name_, entry in team['robot_types'].items()}
-    scenario = bridge_scenario(name, placements, renamed, sensors, seed=setup.seed)
+    scenario = bridge_scenario(name, placements, renamed, sensors, seed=setup.seed, obstacles=obstacles)
     robots = [p.robot for p in placements]
     unknown = [r for r in setup.leaders if r not in robots]
     if unknown:
@@ -156,4 +174,5 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
 
 
 
-__all__ = ['AGENT_NODE', 'AgentSetup', 'EXPERIMENT_FILE', 'agent_label', 'host_groups', 'run_session']
+__all__ = ['AGENT_NODE', 'AgentSetup', 'EXPERIMENT_FILE', 'agent_label', 'check_session_inputs', 'host_groups',
+           'run_session']

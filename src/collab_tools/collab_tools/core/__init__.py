@@ -15,6 +15,7 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | report plots from bags | :mod:`.report_plots` |
 | images: JPEG/PNG transport, label images | :mod:`.image_codec` |
 | pinhole camera geometry (pixel <-> world) | :mod:`.camera_geometry` |
+| what a fiducial sees: FOV/range edge rule, line of sight past boxes (core and bridge alike) | :mod:`.visibility` |
 | TF trees (lookups through a chain of stamped transforms) | :mod:`.tf_tree` |
 | scripted drive plans (the demo's driver) | :mod:`.drive_plan` |
 

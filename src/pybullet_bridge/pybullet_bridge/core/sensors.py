@@ -5,8 +5,9 @@ ranges and bearings are measured in the ground plane between body centres.
 
 * **Fiducial** (the paper's relative-position sensor, Sec. V): an entity of one of the
   configured kinds is detected when it is within ``range`` (centre to centre), its
-  bearing is within ``fov_deg / 2`` of the heading (edges included), and the line of
-  sight is clear: a pybullet ray from the robot's rim (at half its height) to the
+  bearing is within ``fov_deg / 2`` of the heading (edges included) -- the shared rule
+  :func:`collab_tools.core.visibility.in_field_of_view`, the one the coalition core's
+  geometric sensing uses, so both agree at the edges -- and the line of sight is clear: a pybullet ray from the robot's rim (at half its height) to the
   entity's centre first hits the entity itself, or nothing. Any other body in between
   (a wall, a box, another robot, as in the paper's column formation) hides it. The ray
   starts just outside the robot's own cylinder because a ray test reports only its first
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING, Union
 
 import numpy as np
 import pybullet as p
+from collab_tools.core.visibility import in_field_of_view
 
 from .entity import BACKGROUND_LABEL, SceneEntity
 from .mobile_robot_body import SimulatedMobileRobot
@@ -191,10 +193,10 @@ def sense_fiducial(scene: Scene, robot: SimulatedMobileRobot, config: FiducialCo
             continue
         centre, orientation = p.getBasePositionAndOrientation(entity.main_body, physicsClientId=client)
         dx, dy = centre[0] - sx, centre[1] - sy
+        if not in_field_of_view(dx, dy, syaw, config.fov_deg, config.range):
+            continue
         distance = math.hypot(dx, dy)
         bearing = wrap_angle(math.atan2(dy, dx) - syaw)
-        if distance > config.range or abs(bearing) > half_fov + 1e-12:
-            continue
         relative_yaw = wrap_angle(p.getEulerFromQuaternion(orientation)[2] - syaw)
         candidates.append((entity, distance, bearing, centre, relative_yaw))
     # Line of sight: one ray per candidate, from just outside the robot to the target's centre.
