@@ -12,7 +12,7 @@ Where the paper is implemented
 ==============================================  ====================================================
 Paper                                           Module (main names)
 ==============================================  ====================================================
-Sec. III workspace cells, object types,         task_config (TaskConfig, Workspace, load_task);
+Sec. III workspace cells, object types,         task_config (TaskConfig, load_task);
 goals; Sec. V set-up (3x3 grid, colours,        config/sgcm/task.yaml documents every field
 bottom-row goals)
 Sec. III state s (objects per cell and type)    rearrangement (RearrangementModel.state_of, key)
@@ -55,9 +55,13 @@ over interaction rounds)                        EpisodeResult.utility_over)
 Table I from recorded runs (simulation)         round_log (LoggedRound, episode_from_log)
 Table I rounds, lower bound (ours)              centralized (CentralizedPlanner: A* joint plan)
 Fig. 1 / Fig. 2 the ten initial cases           task_config (Case, load_cases);
-                                                config/sgcm/cases.yaml
+                                                config/sgcm/cases.yaml; a case's own grid and
+                                                goals: task_config (case_task, task_of)
 Fig. 1 simulation in PyBullet                   scenario_builder (build_scenario: the bridge's
                                                 scenario of a case)
+Fig. 1 set-up: the arms across the table,       workspace_layout (Workspace, place_arms: cell size
+each reaching the workspace (ours: placed       and arm placement from the grid by the bridge's
+from the grid, or the task refused)             arm models; reach per cell -> ActionTable)
 Sec. V "perception is vision-based"             perception (estimate_state, classify_colour)
 The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
                                                 LeaderSettings, FollowerExecutorSettings)
@@ -67,6 +71,8 @@ Table I, Fig. 4, Fig. 5 experiments             sgcm.experiments (table1, distur
 Choices where the paper is silent (each documented where it is made)
 ---------------------------------------------------------------------
 * Feasibility, relays, blocked follower moves and the cost of failed moves: rearrangement.
+* A robot's action set holds only moves between cells its arm reaches: rearrangement (ActionTable),
+  from workspace_layout (where the arms stand, cell and cube sizes for grids up to 10 x 10).
 * Tie-breaking among equilibria (strong Stackelberg, then the follower's value, then the lowest
   follower action, a pure leader strategy when one attains the values): stage_game.
 * When a task is stuck (the paper's greedy "gets stuck in the last state", Fig. 3): stuck_rule --

@@ -4,7 +4,8 @@ A state s is the number of objects of each colour in each cell, stored flat as a
 int vector of length cells * colours (index cell * colours + colour). An action
 moves one object of one colour from a cell to a neighbouring cell; index 0 of every
 robot's action table is the empty action. The leader moves in 8 directions, the
-follower in 4 (configurable).
+follower in 4 (configurable); a robot's actions are the moves between cells its arm reaches
+(task.workspace.reach: every cell when the arms were placed from the grid).
 
 Rules the paper leaves open, made explicit here:
 - An action is feasible in s when its source cell holds an object of its colour and
@@ -56,17 +57,23 @@ EMPTY_MOVE = Move(-1, -1, -1)
 
 
 class ActionTable:
-    """Every action of one robot on the grid (feasible or not), index 0 empty."""
+    """Every action one robot's arm can make on the grid (feasible in a state or not), index 0 empty.
 
-    def __init__(self, task: TaskConfig, robot: RobotModel):
+    ``reachable`` (per cell) is the arm's reach (task.workspace.reach, see workspace_layout): a move
+    from or to a cell the arm cannot reach is not one of its actions. None: every cell.
+    """
+
+    def __init__(self, task: TaskConfig, robot: RobotModel, reachable: tuple[bool, ...] | None = None):
         directions = _DIRECTIONS_8 if robot.directions == 8 else _DIRECTIONS_4
         k = len(task.colours)
+        reach = reachable if reachable else (True,) * task.cells
+        self.out_of_reach = tuple(cell for cell in range(task.cells) if not reach[cell])
         src, dst, col, diag = [-1], [-1], [-1], [False]
         for cell in range(task.cells):
             row, c = divmod(cell, task.cols)
             for dr, dc in directions:
                 r2, c2 = row + dr, c + dc
-                if 0 <= r2 < task.rows and 0 <= c2 < task.cols:
+                if 0 <= r2 < task.rows and 0 <= c2 < task.cols and reach[cell] and reach[r2 * task.cols + c2]:
                     for colour in range(k):
                         src.append(cell)
                         dst.append(r2 * task.cols + c2)
@@ -95,6 +102,9 @@ class ActionTable:
         try:
             return self._index[(move.source, move.target, move.colour)]
         except KeyError:
+            if move.source in self.out_of_reach or move.target in self.out_of_reach:
+                raise ValueError(f"move {move} is not an action of this robot (a cell out of its arm's reach)") \
+                    from None
             raise ValueError(f'move {move} is not an action of this robot '
                              '(not a neighbouring cell in its directions)') from None
 
@@ -126,7 +136,9 @@ class RearrangementModel:
         self.task = task
         self.colours = len(task.colours)
         self.dim = task.cells * self.colours
-        self.actions = (ActionTable(task, task.leader), ActionTable(task, task.follower))
+        reach = task.workspace.reach or (None, None)
+        self.actions = (ActionTable(task, task.leader, reach[LEADER]),
+                        ActionTable(task, task.follower, reach[FOLLOWER]))
         rng = np.random.default_rng(hash_seed)
         self.hash_weights = rng.integers(1, 2**63, size=self.dim, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
         # Linear reward weights: value of one object of colour c in cell i.

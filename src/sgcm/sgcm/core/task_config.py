@@ -11,15 +11,18 @@ file order.
 """
 from __future__ import annotations
 
-import math
+import copy
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
+import yaml
 from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.fields import Fields, check_color, check_int, join_path, read_yaml_file, require_list, \
     require_mapping
+
+from .workspace_layout import Workspace, parse_workspace
 
 
 class TaskConfigError(ConfigurationError):
@@ -87,31 +90,6 @@ class UtilityWeights:
 
 
 @dataclass(frozen=True)
-class Workspace:
-    """Where the cell grid lies on the simulated table (world frame, metres)."""
-
-    center: tuple[float, float]
-    cell_size: float
-    table_height: float          # z of the table top
-    cube_size: float             # edge of the cubes (their top faces are what the camera sees)
-
-    def cell_region(self, rows: int, cols: int, cell: int) -> tuple[float, float, float, float]:
-        """(xmin, ymin, xmax, ymax) of a cell; row 0 is at +y (top of the camera image)."""
-        row, col = divmod(cell, cols)
-        x0 = self.center[0] - cols * self.cell_size / 2 + col * self.cell_size
-        y1 = self.center[1] + rows * self.cell_size / 2 - row * self.cell_size
-        return x0, y1 - self.cell_size, x0 + self.cell_size, y1
-
-    def cell_of_point(self, rows: int, cols: int, x: float, y: float) -> int | None:
-        """Cell containing the world point, or None outside the grid."""
-        col = math.floor((x - (self.center[0] - cols * self.cell_size / 2)) / self.cell_size)
-        row = math.floor(((self.center[1] + rows * self.cell_size / 2) - y) / self.cell_size)
-        if 0 <= row < rows and 0 <= col < cols:
-            return row * cols + col
-        return None
-
-
-@dataclass(frozen=True)
 class TaskConfig:
     rows: int
     cols: int
@@ -128,8 +106,9 @@ class TaskConfig:
     discount: float                        # gamma
     round_limit: int
     charge_failed_actions: bool
-    workspace: Workspace
+    workspace: Workspace                   # cell size, cubes, arm placement and reach (workspace_layout)
     source: Path | None = None
+    data: dict | None = field(default=None, repr=False, compare=False)   # the parsed mapping (cases merge into it)
 
     @property
     def cells(self) -> int:
@@ -148,10 +127,16 @@ class TaskConfig:
 
 @dataclass(frozen=True)
 class Case:
-    """An initial configuration: object counts per cell and colour."""
+    """An initial configuration: object counts per cell and colour, on its own task.
+
+    ``task`` is the task the case is played on: the file's task, or that task with the case's
+    own grid and goals (see :func:`parse_case`); None for a case built by hand (play it on the
+    task it was built for; :func:`task_of`).
+    """
 
     name: str
     counts: np.ndarray = field(repr=False)   # (cells, colours) int
+    task: TaskConfig | None = field(default=None, repr=False, compare=False)
 
     @property
     def objects(self) -> int:
@@ -262,15 +247,7 @@ def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
         follower = RobotModel(follower.directions, follower.move_cost, follower.diagonal_cost,
                               fp.number('follower', follower.failure_probability, ge=0.0, le=1.0))
 
-    ws = Fields(top.raw('workspace', {}), 'workspace',
-                allowed=('center', 'cell_size', 'table_height', 'cube_size'), error=TaskConfigError)
-    workspace = Workspace(center=ws.vector('center', 2, (0.0, 0.0)),  # type: ignore[arg-type]
-                          cell_size=ws.number('cell_size', 0.10, gt=0.0),
-                          table_height=ws.number('table_height', 0.40, gt=0.0),
-                          cube_size=ws.number('cube_size', 0.025, gt=0.0))
-    if workspace.cube_size * 3 > workspace.cell_size:
-        raise TaskConfigError(f'workspace.cube_size: three cubes must fit along a cell '
-                              f'(cube_size {workspace.cube_size} m, cell_size {workspace.cell_size} m)')
+    workspace = parse_workspace(top.raw('workspace', None), 'workspace', rows, cols, TaskConfigError)
 
     return TaskConfig(
         rows=rows, cols=cols, cell_capacity=capacity, colours=tuple(names),
@@ -279,7 +256,7 @@ def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
         horizon=game.integer('horizon', 2, ge=1, le=MAX_HORIZON),
         discount=game.number('discount', 0.9, gt=0.0, le=1.0),
         round_limit=game.integer('round_limit', 20, ge=1),
-        charge_failed_actions=charge_failed, workspace=workspace, source=source)
+        charge_failed_actions=charge_failed, workspace=workspace, source=source, data=copy.deepcopy(dict(data)))
 
 
 def load_cases(path: str | Path, task: TaskConfig) -> list[Case]:
@@ -306,10 +283,66 @@ def parse_cases(data: Any, task: TaskConfig) -> list[Case]:
     return cases
 
 
+def task_of(case: Case, task: TaskConfig) -> TaskConfig:
+    """The task ``case`` is played on (its own grid and goals, else ``task``)."""
+    return case.task if case.task is not None else task
+
+
+def task_yaml(task: TaskConfig) -> str:
+    """The task as a task file (a case's own task, for the nodes): colours keep their order."""
+    return yaml.safe_dump(task.data, sort_keys=False)
+
+
+def _or_empty(value: Any) -> Any:
+    return {} if value is None else value
+
+
+def case_task(item: Mapping[str, Any], task: TaskConfig, path: str) -> TaskConfig:
+    """``task`` with the case's own ``grid`` (rows, cols, cell_capacity) and ``goals`` (colour: [row, col]).
+
+    Both optional; a colour without a goal of its own keeps the task's, which must then lie on
+    the case's grid. The merged task is placed like any task (workspace_layout): a grid the arms
+    cannot serve is refused here, naming the case and the cells.
+    """
+    if item.get('grid') is None and item.get('goals') is None:
+        return task
+    base = task.data if task.data is not None else {}
+    grid = Fields(_or_empty(item.get('grid')), join_path(path, 'grid'), allowed=('rows', 'cols', 'cell_capacity'),
+                  error=TaskConfigError)
+    rows = grid.integer('rows', task.rows, ge=1, le=10)
+    cols = grid.integer('cols', task.cols, ge=1, le=10)
+    if rows * cols < 2:
+        raise TaskConfigError(f'{grid.path}: needs at least two cells')
+    capacity = grid.integer('cell_capacity', task.cell_capacity, ge=1, le=50)
+    goals_path = join_path(path, 'goals')
+    goals = dict(require_mapping(_or_empty(item.get('goals')), goals_path, error=TaskConfigError))
+    for colour, goal in goals.items():
+        if colour not in task.colours:
+            raise TaskConfigError(f"{join_path(goals_path, str(colour))}: unknown colour '{colour}' "
+                                  f"(known: {', '.join(task.colours)})")
+        _cell(goal, join_path(goals_path, colour), rows, cols)
+    for colour, goal in zip(task.colours, task.goals):
+        row, col = divmod(goal, task.cols)
+        if colour not in goals and (row >= rows or col >= cols):
+            raise TaskConfigError(f"{goals_path}: the task's goal of {colour} [{row}, {col}] is outside the case's "
+                                  f'{rows}x{cols} grid; give {join_path(goals_path, colour)}')
+    data = copy.deepcopy(dict(base))
+    data['grid'] = {**(data.get('grid') or {}), 'rows': rows, 'cols': cols, 'cell_capacity': capacity}
+    colours = data['colours']
+    for colour, goal in zip(task.colours, task.goals):
+        colours[colour] = {**colours[colour], 'goal': list(goals.get(colour, divmod(goal, task.cols)))}
+    try:
+        return parse_task(data, source=task.source)
+    except TaskConfigError as err:   # only the placement is left to fail: name the case's grid
+        raise TaskConfigError(f'{path}.{err}') from None
+
+
 def parse_case(item: Any, task: TaskConfig, path: str = 'case') -> Case:
-    """One case: ``{name, objects: {colour: [[row, col], ...]}}``, one cell entry per object."""
-    f = Fields(item, path, allowed=('name', 'objects'), error=TaskConfigError)
+    """One case: ``{name, objects: {colour: [[row, col], ...]}}``, one cell entry per object,
+    optionally with its own ``grid`` and ``goals`` (:func:`case_task`)."""
+    f = Fields(item, path, allowed=('name', 'grid', 'goals', 'objects'), error=TaskConfigError)
     name = f.string('name')
+    task = case_task(f.data, task, path)
     objects = require_mapping(f.raw('objects'), f.path_of('objects'), error=TaskConfigError)
     counts = np.zeros((task.cells, len(task.colours)), dtype=np.int64)
     for colour, cells in objects.items():
@@ -336,5 +369,39 @@ def parse_case(item: Any, task: TaskConfig, path: str = 'case') -> Case:
         raise TaskConfigError(
             f'{f.path_of("objects")}: the goal cell {task.cell_name(cell)} would have to hold '
             f'{int(goal_totals[cell])} objects, more than grid.cell_capacity = {task.cell_capacity}')
-    return Case(name=name, counts=counts)
+    _check_objects_can_reach_goals(task, counts, f.path_of('objects'))
+    return Case(name=name, counts=counts, task=task)
 
+
+def _check_objects_can_reach_goals(task: TaskConfig, counts: np.ndarray, path: str) -> None:
+    """With a fixed arm placement some cells are out of one arm's reach: every object must still
+    have a way to its goal cell through moves of either arm (moves between cells it reaches)."""
+    ws = task.workspace
+    if not ws.reach or all(all(per_arm) for per_arm in ws.reach):
+        return
+    steps = []
+    for robot, model in enumerate((task.leader, task.follower)):
+        offsets = [(-1, 0), (1, 0), (0, -1), (0, 1)] + ([(-1, -1), (-1, 1), (1, -1), (1, 1)]
+                                                        if model.directions == 8 else [])
+        steps.append((robot, offsets))
+    for colour, goal in enumerate(task.goals):
+        served, frontier = {goal}, [goal]
+        while frontier:   # moves are reversible: the cells from which the goal can be reached
+            cell = frontier.pop()
+            row, col = divmod(cell, task.cols)
+            for robot, offsets in steps:
+                if not ws.reachable(robot, cell):
+                    continue
+                for dr, dc in offsets:
+                    r, c = row + dr, col + dc
+                    other = r * task.cols + c
+                    if 0 <= r < task.rows and 0 <= c < task.cols and other not in served \
+                            and ws.reachable(robot, other):
+                        served.add(other)
+                        frontier.append(other)
+        stranded = [task.cell_name(c) for c in np.flatnonzero(counts[:, colour]) if int(c) not in served]
+        if stranded:
+            raise TaskConfigError(
+                f'{join_path(path, task.colours[colour])}: no sequence of moves the arms can make brings the '
+                f"object(s) in {', '.join(stranded)} to the goal {task.cell_name(goal)} (cells out of an arm's "
+                'reach leave its moves; see workspace.arm_distance)')

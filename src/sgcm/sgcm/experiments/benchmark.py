@@ -16,10 +16,9 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from ..core.fse import FSEPlanner
-from ..core.rearrangement import RearrangementModel
 from ..core.stage_game import solve_fast, solve_milp
 from ..core.task_config import Case, TaskConfig
+from .inputs import CaseModels
 
 VALUE_TOLERANCE = 1e-6
 
@@ -32,18 +31,17 @@ def _timed(solver, ua, ub):
 
 def run_benchmark(task: TaskConfig, cases: list[Case], out_dir: Path, horizons=(1, 2, 3, 4),
                   milp_samples: int = 3, log: Callable[[str], None] = print) -> dict:
-    model = RearrangementModel(task)
     rows = []
     milp_ms, fast_ms = [], []
     mismatches = 0
     total = len(horizons) * len(cases)
     step = 0
     for horizon in horizons:
-        planner = FSEPlanner(model, horizon=horizon, keep_stage_games=milp_samples,
-                             count_terminal_states=True)
+        # each case on its own task (grid, goals), one planner per distinct task
+        games = CaseModels(task, horizon=horizon, keep_stage_games=milp_samples, count_terminal_states=True)
         for case in cases:
             step += 1
-            result = planner.plan(model.state_of(case))
+            result = games.planner(case).plan(games.model(case).state_of(case))
             pair_ms = []
             for ua, ub in result.stage_game_samples:
                 slow, slow_s = _timed(solve_milp, ua, ub)

@@ -18,11 +18,9 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Lo
 
 from ..core.episode import run_sgcm
 from ..core.follower_behaviour import FollowerSettings
-from ..core.fse import FSEPlanner
-from ..core.rearrangement import RearrangementModel
 from ..core.task_config import Case, TaskConfig
 from .case_plots import case_grid
-from .inputs import task_and_cases
+from .inputs import CaseModels, task_and_cases
 from .table1 import final_reward
 
 #: name -> (the follower, executions fail with p_fail)
@@ -56,8 +54,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
 def run_disturbance(task: TaskConfig, cases: list[Case], log: Log = print, seed: int = 0,
                     round_limit: int = ROUND_LIMIT) -> dict:
     """The results (results.json's data): every case under every follower setting."""
-    model = RearrangementModel(task)
-    planner = FSEPlanner(model)
+    games = CaseModels(task)   # each case on its own task (grid, goals)
     results = {'round_limit': round_limit,
                'failure_probability': {'leader': task.leader.failure_probability,
                                        'follower': task.follower.failure_probability},
@@ -68,6 +65,7 @@ def run_disturbance(task: TaskConfig, cases: list[Case], log: Log = print, seed:
     total = len(cases) * len(DISTURBANCE_SETTINGS)
     done = 0
     for index, case in enumerate(cases, start=1):
+        model, planner = games.model(case), games.planner(case)
         state = model.state_of(case)
         per_case = {}
         common_rounds = None  # the perfect follower's rounds: utilities are summed over them

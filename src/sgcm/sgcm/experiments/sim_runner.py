@@ -1,6 +1,7 @@
 """Run SGCM cases in simulation and read them back from their bags.
 
-``run_case`` generates the case's bridge scenario into the run directory and runs
+``run_case`` generates the case's bridge scenario into the run directory (with the task file of
+the case's own grid and goals when it has them, which both nodes then read) and runs
 config/experiments/sgcm_case.yaml (bridge, /leader_arm/leader_planner and
 /follower_arm/follower_executor, all recorded) with the per-run parameters; ``episode_from_bag``
 rebuilds the episode from the recorded /sgcm/guidance and /sgcm/follower_report messages.
@@ -20,7 +21,7 @@ from ..core.follower_behaviour import FollowerSettings
 from ..core.rearrangement import FOLLOWER, LEADER, RearrangementModel
 from ..core.round_log import LoggedRound, episode_from_log
 from ..core.scenario_builder import build_scenario
-from ..core.task_config import Case, TaskConfig
+from ..core.task_config import Case, TaskConfig, task_of, task_yaml
 from ..ros_conversions import FOLLOWER_REPORT, GUIDANCE as GUIDANCE_TOPIC, action_from_msg
 
 # As recorded by a run in the default team namespace.
@@ -34,8 +35,13 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
     """experiment: another experiment file than config/experiments/sgcm_case.yaml (e.g. the same
     nodes split over hosts, with its own discovery); its node names must be the same."""
     follower = follower or FollowerSettings('zero_trust' if strategy == 'greedy' else 'obedient')
-    run_dir.mkdir(parents=True, exist_ok=True)
     scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    own = task_of(case, task)
+    if own is not task:  # the case's own grid and goals: the nodes read this task
+        task_file = run_dir / 'task.yaml'
+        task_file.write_text(task_yaml(own))
+        task = own
     (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario, sort_keys=False))
     overrides = {
         # moves_can_fail: the leader's stuck rule (sgcm.core.stuck_rule) knows what the scenario says.

@@ -24,11 +24,11 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Lo
 
 from ..core.centralized import CentralizedPlanner
 from ..core.episode import EpisodeResult, run_greedy, run_sgcm
-from ..core.fse import FSEPlanner
 from ..core.rearrangement import RearrangementModel
-from ..core.task_config import Case, TaskConfig
+from ..core.scenario_builder import build_scenario
+from ..core.task_config import Case, TaskConfig, task_of
 from .case_plots import case_grid
-from .inputs import task_and_cases, task_file
+from .inputs import CaseModels, task_and_cases, task_file
 
 #: episodes(index, case) -> (SGCM episode, greedy episode)
 Episodes = Callable[[int, Case], tuple[EpisodeResult, EpisodeResult]]
@@ -58,7 +58,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     else:
         episodes = core_episodes(task, bool(request.option('failures', False)), request.seed)
     outcomes = play_cases(task, cases, episodes, request.log)
-    data, acceptance = table1_results(outcomes, task, mode)
+    data, acceptance = table1_results(outcomes, task, mode, cases)
     report = write_table1(outcomes, Path(request.run_dir))
     completed = sum(o.sgcm.completed for o in outcomes)
     stuck = acceptance['greedy_stuck_cases']
@@ -69,13 +69,14 @@ def run(request: ExperimentRequest) -> ExperimentResult:
 
 
 def core_episodes(task: TaskConfig, simulate_failures: bool = False, seed: int = 0) -> Episodes:
-    """Both strategies in the abstract game, case ``index`` seeded with ``seed + index``."""
-    model = RearrangementModel(task)
-    planner = FSEPlanner(model)
+    """Both strategies in the abstract game (of the case's own task), case ``index`` seeded with ``seed + index``."""
+    games = CaseModels(task)
 
     def in_core(index, case):
+        model = games.model(case)
         state = model.state_of(case)
-        return (run_sgcm(model, state, planner=planner, simulate_failures=simulate_failures, seed=seed + index),
+        return (run_sgcm(model, state, planner=games.planner(case), simulate_failures=simulate_failures,
+                         seed=seed + index),
                 run_greedy(model, state, simulate_failures=simulate_failures, seed=seed + index))
     return in_core
 
@@ -84,7 +85,9 @@ def sim_episodes(task: TaskConfig, task_path: Path, cases: list[Case], run_dir: 
                  log: Log = print, seed: int = 0) -> Episodes:
     """Both strategies in simulation, each run recorded under ``run_dir/<case>/<strategy>``."""
     from .sim_runner import episode_from_bag, run_case  # ROS and the orchestration only when simulating
-    model = RearrangementModel(task)
+    for case in cases:   # every case's set-up is checked before anything runs (TaskConfigError names it)
+        build_scenario(task, case)
+    games = CaseModels(task)
     quiet = lambda _text: None  # noqa: E731  (the session's own lines would drown the progress)
 
     def in_sim(index, case):
@@ -98,16 +101,18 @@ def sim_episodes(task: TaskConfig, task_path: Path, cases: list[Case], run_dir: 
             if result.exit_code != 0 or result.bag is None:
                 raise RuntimeError(f'{case.name} {strategy}: simulation run failed ({result.message}); '
                                    f'logs in {case_dir / "logs"}')
-            found[strategy] = episode_from_bag(model, result.bag, strategy)
+            found[strategy] = episode_from_bag(games.model(case), result.bag, strategy)
         return found['sgcm'], found['greedy']
     return in_sim
 
 
 def play_cases(task: TaskConfig, cases: list[Case], episodes: Episodes, log: Log = print) -> list[CaseOutcome]:
-    model = RearrangementModel(task)
-    central = CentralizedPlanner(model)
+    games = CaseModels(task)
+    centrals: dict[int, CentralizedPlanner] = {}
     outcomes = []
     for index, case in enumerate(cases, start=1):
+        model = games.model(case)
+        central = centrals.setdefault(id(model), CentralizedPlanner(model))
         sgcm, greedy = episodes(index, case)
         greedy_over = greedy.stage_utilities_over(sgcm.rounds, final_reward(model, greedy))
         outcome = CaseOutcome(case.name, sgcm, greedy, greedy_over,
@@ -122,10 +127,25 @@ def play_cases(task: TaskConfig, cases: list[Case], episodes: Episodes, log: Log
     return outcomes
 
 
-def table1_results(outcomes: list[CaseOutcome], task: TaskConfig, mode: str = 'core') -> tuple[dict, dict]:
-    """(data, acceptance) of results.json; acceptance['passed'] is the overall check."""
+def case_layout(case: Case, task: TaskConfig) -> dict:
+    """The grid, goals and arm placement of a case played on its own task (results.json)."""
+    own = task_of(case, task)
+    ws = own.workspace
+    return {'rows': own.rows, 'cols': own.cols, 'cell_capacity': own.cell_capacity,
+            'goals': {colour: list(divmod(goal, own.cols)) for colour, goal in zip(own.colours, own.goals)},
+            'cell_size': ws.cell_size, 'cube_size': ws.cube_size, 'arm_axis': ws.arm_axis,
+            'arm_distance': ws.arm_distance}
+
+
+def table1_results(outcomes: list[CaseOutcome], task: TaskConfig, mode: str = 'core',
+                   played: list[Case] | None = None) -> tuple[dict, dict]:
+    """(data, acceptance) of results.json; acceptance['passed'] is the overall check.
+
+    ``played``: the cases (same order as ``outcomes``); one with its own grid or goals gets its
+    ``layout`` in its entry."""
     cases = []
-    for o in outcomes:
+    for index, o in enumerate(outcomes):
+        own = played[index] if played else None
         cases.append({
             'case': o.case,
             'greedy': {'completed': o.greedy.completed, 'stuck': o.greedy.stuck, 'rounds': o.greedy.rounds,
@@ -135,6 +155,8 @@ def table1_results(outcomes: list[CaseOutcome], task: TaskConfig, mode: str = 'c
                      'planning_seconds': [r.planning_seconds for r in o.sgcm.records]},
             'centralized': {'rounds': o.centralized_rounds},
         })
+        if own is not None and task_of(own, task) is not task:
+            cases[-1]['layout'] = case_layout(own, task)
 
     def fewer_or_equal_rounds(o):  # a stuck greedy run never finishes: any SGCM count is fewer
         return o.sgcm.completed and (not o.greedy.completed or o.sgcm.rounds <= o.greedy.rounds)

@@ -15,13 +15,16 @@ URDF are ours and documented where they are defined:
   (any yaw) is reachable with an IK error below 5 mm, for grasp and place poses whose
   tool height relative to the base top is within ``reach_height`` and for the travel
   poses 0.10 m above them (so up to reach_height[1] + 0.10). Measured with
-  :meth:`.kinematics.ArmKinematics.solve_ik` from the home pose over azimuths of +-0.8 rad; the
+  :meth:`.kinematics.ArmKinematics.solve_ik` from the home pose over azimuths of +-``REACH_AZIMUTH``; the
   unit tests check them.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+#: Azimuth either side of a base's facing direction over which ``reach`` was measured (rad).
+REACH_AZIMUTH = 0.8
 
 
 @dataclass(frozen=True)
