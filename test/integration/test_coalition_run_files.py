@@ -44,3 +44,34 @@ def test_column_demo_agents_read_no_run_directory_file(config_dir, tmp_path):
     summary = json.loads((run_dir / 'coalition.json').read_text())
     assert summary['state'] == 'committed', summary
     assert summary['leader'] == 'robot_3' and sorted(summary['members']) == ['robot_1', 'robot_2', 'robot_3'], summary
+
+
+def test_a_wall_rules_out_in_simulation_the_coalition_it_rules_out_in_the_core(config_dir, tmp_path):
+    """Issue 13, item 2: the red cluster of config/coalitions/scenarios/walls.yaml on the bridge.
+    R would see helper_1 (cost 16) but a wall stands between them; helper_2 sees R past a wall
+    beside its line of sight. The core's executable coalition (R + helper_2, 17.5) is the one the
+    schema_agent nodes set up on the generated bridge scenario (same walls, same FOV rule)."""
+    from collab_tools.experiments.api import ExperimentRequest
+    from coalition_agents.experiments import fig7
+
+    data = yaml.safe_load((config_dir / 'coalitions' / 'scenarios' / 'walls.yaml').read_text())
+    data['team'] = str(config_dir / 'coalitions' / 'capabilities' / 'walls_team.yaml')
+    team = yaml.safe_load(open(data['team']).read())
+    red = ('robot_red', 'helper_1', 'helper_2')
+    team['robots'] = {robot: team['robots'][robot] for robot in red}
+    (tmp_path / 'team.yaml').write_text(yaml.safe_dump(team))
+    data.update(team=str(tmp_path / 'team.yaml'), initiators=['robot_red'],
+                robots={robot: data['robots'][robot] for robot in red}, goals={})
+    data['obstacles']['boxes'] = [b for b in data['obstacles']['boxes'] if b['name'] != 'kerb_green']
+    path = tmp_path / 'red_walls.yaml'
+    path.write_text(yaml.safe_dump(data))
+    run_dir = (tmp_path / 'run').resolve()
+    result = fig7.run(ExperimentRequest(config_dir, run_dir, options={'mode': 'sim', 'scenario': str(path)}, log=print))
+    core = result.data['core_chosen']['robot_red']
+    assert core['members'] == ['robot_red', 'helper_2'] and core['cost'] == 17.5
+    scenario = yaml.safe_load((run_dir / 'sim' / 'scenario.yaml').read_text())
+    assert [b['name'] for b in scenario['obstacles']['boxes']] == ['wall_red', 'wall_beside']
+    (leader,) = result.data['leaders']
+    assert leader['state'] == 'committed', leader
+    assert sorted(leader['members']) == ['helper_2', 'robot_red'] and leader['cost'] == 17.5, leader
+    assert leader['matches_core'] and result.passed, result.acceptance
