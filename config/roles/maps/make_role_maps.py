@@ -7,8 +7,8 @@ Several gaps are narrower than a large robot (r = 0.1 m needs > 0.2 m) but wider
 small one (r = 0.02 m), so the robot types get different E-Maps (Table IV).
 
 White is free, black is occupied; row 0 of the image is the top (largest y). The YAML
-format is described in role_engine/core/environment.py (same fields as the bridge's
-``obstacles.map``). Run: python3 config/roles/maps/make_role_maps.py
+format is a Nav2 map YAML, described in role_engine/core/environment.py (the bridge's
+``obstacles.map: <yaml>`` reads the same file). Run: python3 config/roles/maps/make_role_maps.py
 """
 from pathlib import Path
 
@@ -87,8 +87,11 @@ def yaml_text(name: str, description: str) -> str:
             f"description: '{description}'\n"
             f'image: {name}.png\n'
             f'resolution: {RESOLUTION}\n'
-            f'origin: [{ORIGIN[0]}, {ORIGIN[1]}]\n'
-            f'occupied_below: 128\n'
+            f'origin: [{ORIGIN[0]}, {ORIGIN[1]}, 0.0]\n'
+            f'negate: 0\n'
+            f'occupied_thresh: 0.65\n'
+            f'free_thresh: 0.25\n'
+            f'mode: trinary\n'
             f'border_is_obstacle: true\n')
 
 

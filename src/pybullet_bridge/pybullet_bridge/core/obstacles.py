@@ -11,7 +11,7 @@ from collab_tools.core.fields import Fields, join_path, require_list
 
 from .entity import EntityDefinition
 from .errors import ScenarioError
-from .occupancy_map import occupancy_to_rectangles, read_grey_image
+from .occupancy_map import occupancy_to_rectangles, read_grey_image, read_nav2_map
 from .sections import SectionContext
 from .world import WALLS_ENTITY_NAME, WorldConfig
 
@@ -82,6 +82,8 @@ def load_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
     (``obstacles.map``), which error messages start with.
     """
     path = ctx.path
+    if isinstance(map_cfg, str) or (isinstance(map_cfg, dict) and 'yaml' in map_cfg):
+        return _nav2_map_boxes(map_cfg, ctx)
     fields = Fields(map_cfg, path, allowed=('image', 'resolution', 'origin', 'occupied_below',
                                             'height', 'color'), error=ScenarioError)
     grey = read_grey_image(ctx.resolve(fields.string('image')), fields.path_of('image'))
@@ -98,6 +100,24 @@ def load_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
         boxes.append(BoxObstacle(f'map_{index}', ((x0 + x1) / 2, (y0 + y1) / 2), (x1 - x0, y1 - y0),
                                  height, 0.0, color, config_path=path))
     return boxes
+
+
+def _nav2_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
+    """``obstacles.map`` naming a Nav2 map YAML (``map: file.yaml`` or ``map: {yaml: file.yaml, height,
+    color}``, relative to the scenario): its occupied and unknown cells become boxes ``map_<i>``,
+    placed and rotated by the YAML's origin [x, y, yaw] (core.occupancy_map.read_nav2_map)."""
+    path = ctx.path
+    if isinstance(map_cfg, str):
+        map_cfg = {'yaml': map_cfg}
+    fields = Fields(map_cfg, path, allowed=('yaml', 'height', 'color'), error=ScenarioError)
+    yaml_path = ctx.resolve(fields.string('yaml'))
+    if not yaml_path.is_file():
+        raise fields.fail('yaml', f"map file '{yaml_path}' does not exist")
+    height = fields.number('height', 0.3, gt=0.0)
+    color = fields.color('color', DEFAULT_MAP_COLOR)
+    nav2 = read_nav2_map(yaml_path, error=ScenarioError, extra_fields=('name', 'description', 'border_is_obstacle'))
+    return [BoxObstacle(f'map_{index}', centre, size, height, yaw, color, config_path=path)
+            for index, (centre, size, yaw) in enumerate(nav2.boxes())]
 
 
 def parse_obstacles(value: Any, context: SectionContext) -> list[BoxObstacle]:

@@ -5,16 +5,25 @@ an occupancy image or the top-view camera (:mod:`.top_view`). :meth:`Environment
 builds the view of one robot type: obstacles inflated by the robot radius, the cells its
 centre may visit, and the configuration-space SDF (Appendix A step 1, Sec. IV-B).
 
-Map file (YAML; the same fields as the bridge scenario's ``obstacles.map``, so one PNG
-serves both the simulation and the planner)::
+Map file: a Nav2 map YAML (nav2_map_server's format, read by
+``pybullet_bridge.core.occupancy_map.read_nav2_map``; the bridge scenario's ``obstacles.map`` reads
+the same file, so one map serves both the simulation and the planner)::
 
-    image: env_1.png            # required, path relative to the YAML file; white free, black occupied
+    image: env_1.png            # required, path relative to the YAML file; with negate 0 white is free
     resolution: 0.025           # required, m per pixel, > 0
-    origin: [-2.5, -2.5]        # required, world x y of the image's bottom-left corner
-    occupied_below: 128         # grey value (0..255) below which a pixel is occupied, [1, 256]
-    border_is_obstacle: true    # the area beyond the image is a wall (robots stay on the map)
-    name: env_1                 # optional, default: the YAML file's stem
+    origin: [-2.5, -2.5, 0.0]   # required, [x, y, yaw] of the image's bottom-left corner (yaw rad)
+    negate: 0                   # required, 0 / 1
+    occupied_thresh: 0.65       # required, [0, 1]: occupied when (255 - shade) / 255 > this
+    free_thresh: 0.25           # required, [0, 1]: free below; in between unknown = an obstacle
+    mode: trinary               # optional (trinary only)
+    border_is_obstacle: true    # optional, ours: the area beyond the image is a wall (default true)
+    name: env_1                 # optional, ours: default the YAML file's stem
     description: ''             # optional free text
+
+A rotated map (yaw != 0) is resampled onto an axis-aligned grid of the same resolution covering
+it (cells outside the image unknown, i.e. occupied). The earlier form -- ``origin: [x, y]`` and
+``occupied_below: 128`` (grey value below which a pixel is occupied), no ``negate`` /
+``*_thresh`` / ``mode`` -- is still read.
 """
 from __future__ import annotations
 
@@ -26,7 +35,8 @@ import numpy as np
 from scipy import ndimage
 
 from collab_tools.core.fields import Fields, fail, read_yaml_file
-from pybullet_bridge.core.occupancy_map import read_grey_image    # one reader for the simulation's and the planner's maps
+from pybullet_bridge.core.occupancy_map import Nav2Map, nav2_map_from_data, read_grey_image
+# (one reader for the simulation's and the planner's maps)
 
 from .errors import RoleEngineError
 from .grid import GridFrame, image_rows_to_grid
@@ -34,6 +44,10 @@ from .sdf import SignedDistanceField
 
 MAP_FILE_FIELDS = ('image', 'resolution', 'origin', 'occupied_below', 'border_is_obstacle',
                    'name', 'description')
+#: Keys of a role-engine map beyond Nav2's.
+MAP_EXTRA_FIELDS = ('border_is_obstacle', 'name', 'description')
+#: Any of these says the file is a Nav2 map YAML (else the earlier occupied_below form).
+NAV2_MARKERS = ('negate', 'occupied_thresh', 'free_thresh', 'mode')
 #: 8-connectivity: a robot centre moves between diagonal neighbours too.
 EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 
@@ -183,10 +197,13 @@ def environment_from_scenario(scenario, resolution: float) -> Environment:
 
 
 def load_map_file(path: str | Path) -> Environment:
-    """Read a map YAML (format in the module docstring) and its occupancy image."""
+    """Read a map YAML (format in the module docstring: Nav2's, or the earlier occupied_below form)."""
     path = Path(path)
     where = str(path)
     data = read_yaml_file(path, 'map file', RoleEngineError)
+    if isinstance(data, dict) and any(key in data for key in NAV2_MARKERS):
+        return environment_from_nav2(nav2_map_from_data(data, path, where, error=RoleEngineError,
+                                                        extra_fields=MAP_EXTRA_FIELDS), where)
     fields = Fields(data, where, allowed=MAP_FILE_FIELDS, error=RoleEngineError)
     grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)
@@ -200,3 +217,16 @@ def load_map_file(path: str | Path) -> Environment:
     fields.raw('description', '')
     return Environment.from_image(grey, resolution, origin, occupied_below=threshold,
                                   border_is_obstacle=border, name=name)
+
+
+def environment_from_nav2(nav2: Nav2Map, where: str = '') -> Environment:
+    """The environment of a read Nav2 map: occupied and unknown cells are obstacles (module docstring)."""
+    where = where or str(nav2.source)
+    border = nav2.extra.get('border_is_obstacle', True)
+    if not isinstance(border, bool):
+        raise fail(f'{where}.border_is_obstacle', f'must be true or false (got {border!r})', RoleEngineError)
+    name = nav2.extra.get('name', nav2.source.stem)
+    if not isinstance(name, str) or not name:
+        raise fail(f'{where}.name', f'must be a non-empty string (got {name!r})', RoleEngineError)
+    occupied, origin = nav2.axis_aligned(unknown_is_occupied=True)
+    return Environment(occupied, nav2.resolution, origin, border_is_obstacle=border, name=name)
