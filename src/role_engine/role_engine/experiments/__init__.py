@@ -11,11 +11,16 @@ roles-collab   Sec. V-A-3/4, Fig. 11: task- vs role-based collaboration  :mod:`.
 roles-formation Sec. V-B, Figs. 15-16: the diamond formation in simulation :mod:`.formation`
 ============== ======================================================== ==========================
 
-Shared pieces: :mod:`.config` (config/roles/experiments.yaml), :mod:`.problems` (the seeded
+Inputs from the command line: ``roles-table3/4 [--config FILE] [--maps YAML ...] [--map-image PNG
+--resolution M [--origin X Y [YAW]]] [--only NAME ...]``; ``roles-formation [--settings FILE]
+[--map NAV2_YAML]`` (:mod:`.formation_inputs`). Maps are Nav2 map YAMLs (core.environment).
+
+Shared pieces: :mod:`.config` (config/roles/experiments.yaml and the table inputs), :mod:`.problems` (the seeded
 problems), :mod:`.gp_sweep` (the environments x problems x sigma_obs sweep and its measures),
 :mod:`.table_report` (breakdown tables and figures of Tables III/IV), :mod:`.collab_config`,
 :mod:`.collab_simulation` (the core-level simulation driving the nodes' RolePlayer),
-:mod:`.path_measures` (distances, contacts, jerk), :mod:`.formation_bag` (the recorded run).
+:mod:`.path_measures` (distances, obstacle clearance, contacts, jerk), :mod:`.formation_bag` (the recorded
+run), :mod:`.formation_inputs` (the formation's team, map and generated run files).
 ``scripts/bench gpmp`` runs :mod:`.benchmark` (with :mod:`.benchmark_core`).
 """
 from collab_tools.experiments.api import Experiment, Option
@@ -27,17 +32,34 @@ def _only(what: str) -> Option:
     return Option('--only', f'run only these {what}', nargs='+', metavar=what.rstrip('s').upper())
 
 
+#: The table experiments' inputs (experiments/config.py table_config): settings file, map list or map image.
+TABLE_INPUTS = (
+    Option('--config', 'the experiments settings file (default config/roles/experiments.yaml)', metavar='FILE'),
+    Option('--maps', 'Nav2 map YAMLs that replace the settings file\'s environments (named by file stem)',
+           nargs='+', metavar='YAML'),
+    Option('--map-image', 'one occupancy image as the only environment (white free, black occupied)',
+           metavar='IMAGE'),
+    Option('--resolution', 'm per pixel of --map-image', type=float, metavar='M'),
+    Option('--origin', 'x y [yaw] of --map-image\'s bottom-left corner (default 0 0 0)', type=float, nargs='+',
+           metavar='V'),
+)
+
+
 EXPERIMENTS = (
     Experiment('roles-table3', f'{PAPER}, Table III', 'E-Map vs straight-line initialisation of GP inference',
-               'role_engine.experiments.table3', options=(_only('environments'),)),
+               'role_engine.experiments.table3', options=(_only('environments'), *TABLE_INPUTS)),
     Experiment('roles-table4', f'{PAPER}, Table IV', 'GRA vs nearest-neighbour association, small and large robots',
-               'role_engine.experiments.table4', options=(_only('environments'),)),
+               'role_engine.experiments.table4', options=(_only('environments'), *TABLE_INPUTS)),
     Experiment('roles-collab', f'{PAPER}, Sec. V-A-3 and V-A-4 (Fig. 11)',
                'task-based vs role-based collaboration and the narrow-hallway swap (core-level simulation)',
                'role_engine.experiments.collab', options=(_only('scenarios'),)),
     Experiment('roles-formation', f'{PAPER}, Sec. V-B (Figs. 15-16)',
                'four robots of two types form a diamond in simulation through the nodes, recorded',
                'role_engine.experiments.formation',
-               options=(Option('--stop-player', "stop this robot's role player mid-run (the others must complete)",
-                               metavar='ROBOT'),)),
+               options=(Option('--settings', 'the role nodes\' settings file; its scenario is the team (default '
+                               'config/roles/formation_demo.yaml)', metavar='FILE'),
+                        Option('--map', 'a Nav2 map YAML: the simulated obstacles (replaces the scenario\'s)',
+                               metavar='YAML'),
+                        Option('--stop-player', "stop this robot's role player mid-run (the others must complete)",
+                               metavar='ROBOT'))),
 )

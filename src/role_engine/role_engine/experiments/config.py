@@ -1,5 +1,11 @@
 """The settings of Tables III and IV (and of the GPMP benchmark): ``config/roles/experiments.yaml``, validated.
 
+Command-line inputs of ``roles-table3`` / ``roles-table4`` (:func:`table_options`):
+``--config FILE`` (another experiments file), ``--maps YAML [YAML ...]`` (Nav2 map YAMLs that
+replace the file's environments, each named by its stem), or ``--map-image PNG --resolution R
+[--origin X Y [YAW]]`` (one image; a Nav2 YAML for it is written into the run directory), then
+``--only NAME ...`` narrows the environments.
+
 The file is documented where it lives; every error names the offending field (RoleEngineError).
 :func:`table_config` is what the table experiments start from: the file, narrowed by the
 run's options (``only``: a subset of environments; ``sigma_obs`` and ``problems_per_environment``,
@@ -105,15 +111,19 @@ class ExperimentConfig:
     table3: TableSettings
     table4: TableSettings
     benchmark: BenchmarkSettings
+    #: Environments given as map files (name -> Nav2 map YAML) instead of ``maps_dir/<name>.yaml``.
+    map_files: tuple[tuple[str, Path], ...] = ()
 
     def gp_config(self, sigma_obs: float) -> GPPlannerConfig:
         return GPPlannerConfig.from_mapping({**self.gp, 'sigma_obs': sigma_obs}, 'gp')
 
     def map_file(self, name: str) -> Path:
-        return self.maps_dir / f'{name}.yaml'
+        return dict(self.map_files).get(name, self.maps_dir / f'{name}.yaml')
 
     def summary(self) -> dict:
-        return {'file': str(self.path), 'environments': list(self.environments), 'sigma_obs': list(self.sigma_obs),
+        return {'file': str(self.path), 'environments': list(self.environments),
+                'map_files': {name: str(self.map_file(name)) for name in self.environments},
+                'sigma_obs': list(self.sigma_obs),
                 'total_time_s': self.total_time, 'states': self.states, 'gp': dict(self.gp),
                 'qualification_lambda': self.qualification_lambda}
 
@@ -240,10 +250,26 @@ def load_experiment_config(path: str | Path) -> ExperimentConfig:
 
 
 def table_config(config_dir: str | Path, environments=None, sigma_obs=None,
-                 problems_per_environment=None) -> ExperimentConfig:
-    """The experiments file under ``config_dir``, narrowed to a subset of environments, other sigma_obs
-    values or fewer problems (RoleEngineError naming the option)."""
-    config = load_experiment_config(Path(config_dir) / CONFIG_FILE)
+                 problems_per_environment=None, *, config_file: str | Path | None = None, maps=None,
+                 map_image: str | Path | None = None, resolution: float | None = None, origin=None,
+                 run_dir: str | Path | None = None) -> ExperimentConfig:
+    """The experiments file (``config_file``, default ``config_dir/roles/experiments.yaml``), its
+    environments replaced by ``maps`` (Nav2 map YAMLs; each named by its file stem) or by one
+    ``map_image`` with its ``resolution`` and ``origin`` [x, y(, yaw)] (a Nav2 YAML for it is written to
+    ``run_dir``), then narrowed to a subset of environments (``environments``: the names), other
+    sigma_obs values or fewer problems. Every map is read here: RoleEngineError naming the option or
+    the file's field before anything runs."""
+    if config_file is not None and not Path(config_file).is_file():
+        raise RoleEngineError(f"--config: file '{config_file}' does not exist")
+    config = load_experiment_config(Path(config_file) if config_file is not None else Path(config_dir) / CONFIG_FILE)
+    if maps is not None and map_image is not None:
+        raise RoleEngineError('--maps, --map-image: give one of them (a map list or one map image)')
+    if map_image is not None:
+        maps = [image_map_yaml(map_image, resolution, origin, run_dir)]
+    elif resolution is not None or origin is not None:
+        raise RoleEngineError('--resolution, --origin: only with --map-image')
+    if maps is not None:
+        config = replace(config, **_map_list(maps))
     if environments is not None:
         unknown = [e for e in environments if e not in config.environments]
         if not environments or unknown:
@@ -264,3 +290,52 @@ def table_config(config_dir: str | Path, environments=None, sigma_obs=None,
                          table4=replace(config.table4, problems_per_environment=problems_per_environment))
     return config
 
+
+def _map_list(maps) -> dict:
+    """environments and map_files of a list of map YAMLs (each read and validated now)."""
+    from ..core.environment import load_map_file
+
+    paths = [Path(m).expanduser().resolve() for m in (maps or [])]
+    if not paths:
+        raise RoleEngineError('--maps: give at least one map YAML')
+    names = [p.stem for p in paths]
+    for given, path in zip(maps, paths):
+        if not path.is_file():
+            raise RoleEngineError(f"--maps: file '{given}' does not exist")
+        if names.count(path.stem) > 1:
+            raise RoleEngineError(f'--maps: two maps are named {path.stem!r} (the file stem names an environment)')
+        load_map_file(path)
+    return {'environments': tuple(names), 'map_files': tuple(zip(names, paths))}
+
+
+def image_map_yaml(image: str | Path, resolution, origin, run_dir) -> Path:
+    """A Nav2 map YAML for one occupancy image (white free, black occupied, Nav2's thresholds), written
+    into ``run_dir``; ``origin`` [x, y] or [x, y, yaw] of the image's bottom-left corner, default [0, 0, 0]."""
+    import yaml
+
+    image_path = Path(image).expanduser().resolve()
+    if not image_path.is_file():
+        raise RoleEngineError(f"--map-image: file '{image}' does not exist")
+    if resolution is None:
+        raise RoleEngineError('--resolution: required with --map-image (m per pixel, > 0)')
+    resolution = check_number(resolution, '--resolution', gt=0.0)
+    origin = [0.0, 0.0] if origin is None else list(origin)
+    if len(origin) not in (2, 3):
+        raise RoleEngineError(f'--origin: must be x y or x y yaw (got {origin})')
+    origin = [check_number(v, f'--origin[{i}]') for i, v in enumerate(origin)] + [0.0] * (3 - len(origin))
+    if run_dir is None:
+        raise RoleEngineError('--map-image: needs a run directory to write its map YAML into')
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = run_dir / f'{image_path.stem}.yaml'
+    path.write_text(yaml.safe_dump({'image': str(image_path), 'resolution': resolution, 'origin': origin,
+                                    'negate': 0, 'occupied_thresh': 0.65, 'free_thresh': 0.25, 'mode': 'trinary'},
+                                   sort_keys=False))
+    return path
+
+
+def table_options(request) -> dict:
+    """The table experiments' input options of a request, as table_config's keywords."""
+    return dict(config_file=request.option('config'), maps=request.option('maps'),
+                map_image=request.option('map_image'), resolution=request.option('resolution'),
+                origin=request.option('origin'), run_dir=request.run_dir)

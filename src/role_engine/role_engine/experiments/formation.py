@@ -1,10 +1,14 @@
 """The diamond formation in simulation, recorded, measured from the bag (paper Sec. V-B, Figs. 15-16):
-``scripts/experiment roles-formation [--stop-player <robot>]``.
+``scripts/experiment roles-formation [--settings FILE] [--map NAV2_YAML] [--stop-player <robot>]``.
 
-Runs ``config/experiments/roles_formation.yaml`` (pybullet bridge + role_engine + robot_tracker + one
+``--settings`` (the team and the role nodes' settings) and ``--map`` (a Nav2 map YAML: the
+simulated obstacles) are read and validated first (:mod:`.formation_inputs`). Runs
+``config/experiments/roles_formation.yaml`` (pybullet bridge + role_engine + robot_tracker + one
 role_player per robot, every topic of interest recorded) through the orchestration library
 (:func:`collab_tools.orchestration.experiment.run_experiment`), then reads the bag and measures
-the run (:mod:`.formation_bag`). Writes ``formation.md``, ``commanded_vs_tracked.png`` and
+the run (:mod:`.formation_bag`: robot-robot distances and the robot-obstacle clearance of the
+ground truth against the scenario's boxes, map cells and walls; a contact of either kind is a
+collision). Writes ``formation.md``, ``commanded_vs_tracked.png`` and
 ``cmd_vel.png``.
 
 ``--stop-player <robot>``: the same run, but once that robot's player (``/<robot>/role_player``) has
@@ -12,9 +16,11 @@ published ``stop_after_versions`` re-optimised roles, its node is stopped (SIGIN
 notice the silence, renegotiate with the others, and they must complete the formation. This
 needs a step "stop a node once a message matches" that the experiment YAML cannot express, so
 that variant runs a generated copy of the experiment file with two more ``after_start`` steps.
+The acceptance: completed, no collision, min robot distance >= sum of radii, min obstacle clearance > 0.
 """
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -22,64 +28,71 @@ import numpy as np
 import yaml
 
 from collab_tools.experiments import plots
-from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Log
+from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 
+from ..core.errors import RoleEngineError
 from .collab import ROBOT_COLOURS
 from .formation_bag import CHANNEL, FormationLog, commanded_positions, formation_results, read_formation_bag
-
-EXPERIMENT_FILE = 'experiments/roles_formation.yaml'
+from .formation_inputs import EXPERIMENT_FILE, formation_inputs
+from .path_measures import ObstacleBox
 #: Re-optimised roles the stopped player publishes before it is stopped.
 STOP_AFTER_VERSIONS = 5
 
 
 def run(request: ExperimentRequest) -> ExperimentResult:
-    """Run the orchestrated formation (optionally stopping one player), then measure it from the bag."""
-    from pybullet_bridge.core.scenario import load_scenario
-
-    from ..core.formation_task import load_formation_task, team_from_scenario
+    """Run the orchestrated formation (optionally on another team or map, or stopping one player), then
+    measure it from the bag. Every input is loaded and validated before a node starts."""
+    from collab_tools.orchestration.experiment import run_experiment
 
     config_dir, run_dir, log = Path(request.config_dir), Path(request.run_dir), request.log
     stop_player = request.option('stop_player')
     stop_after_versions = request.option('stop_after_versions', STOP_AFTER_VERSIONS)
-    experiment = config_dir / EXPERIMENT_FILE
-    task = load_formation_task(config_dir / 'roles' / 'formation_demo.yaml')
-    team = team_from_scenario(load_scenario(task.scenario), task.inflation_margin)
-    radii = {m.name: m.robot_type.radius for m in team}
+    inputs = formation_inputs(config_dir, run_dir, settings=request.option('settings'),
+                              map_yaml=request.option('map'))
+    task, radii = inputs.task, inputs.radii
     if stop_player is not None and stop_player not in radii:
-        raise ValueError(f"--stop-player: must be one of {', '.join(radii)} (got {stop_player!r})")
-    quiet = lambda _text: None  # noqa: E731  (the session's own lines would drown the progress)
-    log(f"[roles-formation] running {experiment.name} in simulation ({len(team)} robots"
+        raise RoleEngineError(f"--stop-player: must be one of {', '.join(radii)} (got {stop_player!r})")
+    experiment = config_dir / EXPERIMENT_FILE
+    data = inputs.experiment
+    if stop_player is not None:
+        data = with_stop(data, stop_player, stop_after_versions, experiment)
+    if inputs.generated or stop_player is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        experiment = run_dir / 'experiment.yaml'
+        experiment.write_text(yaml.safe_dump(data, sort_keys=False))
+    log(f"[roles-formation] running {experiment.name} in simulation ({len(radii)} robots, scenario "
+        f"{inputs.scenario_file.name}, {len(inputs.obstacles)} obstacle boxes"
         + (f', stopping {stop_player} after {stop_after_versions} re-plans' if stop_player else '') + f'): {run_dir}')
     began = time.monotonic()
-    if stop_player is None:
-        from collab_tools.orchestration.experiment import run_experiment
-        outcome = run_experiment(experiment, config_dir, run_dir=run_dir, log=quiet)
-        bag, message, exit_code = outcome.bag, outcome.message, outcome.exit_code
-    else:
-        bag, message, exit_code = _run_with_stop(experiment, config_dir, run_dir, stop_player, stop_after_versions,
-                                                 log)
+    outcome = run_experiment(experiment, config_dir, run_dir=run_dir, log=lambda _text: None)
+    bag, message, exit_code = outcome.bag, outcome.message, outcome.exit_code
     wall = time.monotonic() - began
     log(f'[roles-formation] session ended after {wall:.0f} s wall: {message} (exit code {exit_code})')
     if bag is None or not (bag / 'metadata.yaml').is_file():
         raise RuntimeError(f'no bag recorded ({message}); logs in {run_dir / "logs"}')
     flog = read_formation_bag(bag, sorted(radii))
-    results = formation_results(flog, radii, task.arrival_tolerance)
+    results = formation_results(flog, radii, task.arrival_tolerance, inputs.obstacles)
     results.update({'mode': 'sim', 'bag': str(bag), 'session_message': message, 'session_exit_code': exit_code,
                     'session_wall_s': wall, 'stopped_player': stop_player,
+                    'settings_file': str(task.source), 'scenario_file': str(inputs.scenario_file),
+                    'map': str(Path(request.option('map')).resolve()) if request.option('map') else None,
                     'positions_from': 'role players: robot_tracker (camera colour tracking); measures: ground truth'})
     acceptance = formation_acceptance(results, stop_player)
     report = formation_markdown(results, acceptance)
     (run_dir / 'formation.md').write_text(report)
-    plot_commanded_vs_tracked(flog, results, run_dir / 'commanded_vs_tracked.png')
+    plot_commanded_vs_tracked(flog, results, run_dir / 'commanded_vs_tracked.png', inputs.obstacles)
     plot_commands(flog, run_dir / 'cmd_vel.png')
     return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results)
 
 
 def formation_acceptance(results: dict, stopped: str | None = None) -> dict:
-    """Completed, no collision (distance never below the sum of radii); with a stopped player also:
-    renegotiated without it."""
+    """Completed, no collision (no robot-robot contact and no robot-obstacle contact; robot distances
+    never below the sum of radii; obstacle clearance > 0); with a stopped player also: renegotiated
+    without it."""
+    obstacle = results.get('min_obstacle_clearance')
     checks = {'completed': results['completed'], 'no_collision': results['collisions'] == 0,
-              'min_distance_at_least_sum_of_radii': results['min_clearance'] >= 0.0}
+              'min_distance_at_least_sum_of_radii': results['min_clearance'] >= 0.0,
+              'min_obstacle_clearance_positive': obstacle is None or obstacle > 0.0}
     if stopped is not None:
         final = results['rounds'][-1] if results['rounds'] else {}
         checks['renegotiated_without_stopped'] = (results['final_round'] or 0) >= 2 and stopped in final.get(
@@ -102,24 +115,17 @@ def player_label(data: dict, robot: str, where: object = 'experiment') -> str:
     raise ValueError(f'{where}: no role_player node runs in the namespace /{robot}')
 
 
-def _run_with_stop(experiment: Path, config_dir: Path, run_dir: Path, robot: str, versions: int, log: Log):
+def with_stop(data: dict, robot: str, versions: int, where: object = 'experiment') -> dict:
     """The experiment with two more after_start steps: once ``robot``'s player has published
     ``versions`` re-optimised roles, stop that player; the run then waits for the engine as usual."""
-    from collab_tools.orchestration.experiment import load_experiment, run_experiment
-
-    data = load_experiment(experiment)
-    player = player_label(data, robot, experiment)
+    player = player_label(data, robot, where)
+    data = dict(data)
     data['after_start'] = list(data.get('after_start') or []) + [
         {'wait_for_message': {'topic': CHANNEL, 'type': 'role_interfaces/msg/ProcessRole',
                               'timeout': float(data.get('timeout', 300)),
                               'equals': {'robot': robot}, 'at_least': {'version': versions}}},
         {'stop': player}]
-    run_dir.mkdir(parents=True, exist_ok=True)
-    generated = run_dir / 'experiment.yaml'
-    generated.write_text(yaml.safe_dump(data, sort_keys=False))
-    log(f'[roles-formation] stopping {player} once {robot} has published {versions} re-optimised roles')
-    outcome = run_experiment(generated, config_dir, run_dir=run_dir, log=lambda _text: None)
-    return outcome.bag, outcome.message, outcome.exit_code
+    return data
 
 
 # ------------------------------------------------------------------------------- table, plots
@@ -128,15 +134,24 @@ def formation_markdown(results: dict, acceptance: dict | None = None) -> str:
              f"completed: {'yes' if results['completed'] else 'NO'} (round {results['final_round']}, "
              f"{results['final_status']}); min distance between centres {results['min_distance']:.3f} m "
              f"({'-'.join(results['min_distance_pair'] or [])}, sum of radii {results['sum_of_radii']:.3f} m, "
-             f"clearance {results['min_clearance']:.3f} m); collisions {results['collisions']}", '',
-             '| robot | role | arrived | arrival time s | final error m | tracking error rms / max m |',
-             '|---|---|---|---|---|---|']
+             f"clearance {results['min_clearance']:.3f} m); collisions {results['collisions']} "
+             f"({results.get('robot_collisions', results['collisions'])} robot-robot, "
+             f"{results.get('obstacle_contacts', 0)} robot-obstacle)", '',
+             'min robot-obstacle clearance (ground truth against the map\'s boxes and the walls, minus the '
+             f"robot's radius): {_mm(results.get('min_obstacle_clearance'))}"
+             + (f" ({results['min_obstacle_clearance_robot']})" if results.get('min_obstacle_clearance_robot') else ''),
+             '',
+             '| robot | role | arrived | arrival time s | final error m | tracking error rms / max m '
+             '| min obstacle clearance mm | obstacle contacts |',
+             '|---|---|---|---|---|---|---|---|']
     for robot, r in results['robots'].items():
         arrival = f"{r['arrival_time']:.1f}" if r['arrival_time'] is not None else '-'
         tracking = (f"{r['tracking_error_rms']:.3f} / {r['tracking_error_max']:.3f}"
                     if r['tracking_error_rms'] is not None else '-')
+        clearance = (results.get('obstacle_clearance') or {}).get(robot, {})
         lines.append(f"| {robot} | {r['role_id']} | {'yes' if r['arrived'] else 'NO'} | {arrival} | "
-                     f"{r['final_error']:.3f} | {tracking} |")
+                     f"{r['final_error']:.3f} | {tracking} | {_mm(clearance.get('min_clearance'))} | "
+                     f"{clearance.get('contacts', 0)} |")
     if results.get('stopped_player'):
         lines += ['', f"Stopped player: {results['stopped_player']}; rounds: "
                   + '; '.join(f"{r['round']} {r['status']} ({r['message']})" for r in results['rounds'])]
@@ -145,9 +160,23 @@ def formation_markdown(results: dict, acceptance: dict | None = None) -> str:
     return '\n'.join(lines) + '\n'
 
 
-def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path) -> None:
-    """Fig. 15: commanded (+, the role in force) and actual (., ground truth) positions of every robot."""
+def _mm(value: float | None) -> str:
+    return '-' if value is None else f'{1000.0 * value:.1f} mm'
+
+
+def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path,
+                              obstacles: list[ObstacleBox] | None = None) -> None:
+    """Fig. 15: commanded (+, the role in force) and actual (., ground truth) positions of every robot,
+    over the static obstacles (grey)."""
     fig, (ax, ax_err) = plots.figure(12.0, 5.4, columns=2)
+    from matplotlib.patches import Rectangle
+
+    for box in obstacles or []:
+        c, s = math.cos(box.yaw), math.sin(box.yaw)
+        hx, hy = box.size[0] / 2.0, box.size[1] / 2.0
+        corner = (box.center[0] - c * hx + s * hy, box.center[1] - s * hx - c * hy)
+        ax.add_patch(Rectangle(corner, box.size[0], box.size[1], angle=math.degrees(box.yaw), color='0.6',
+                               alpha=0.7, lw=0))
     for k, robot in enumerate(sorted(log.truth)):
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
         truth = log.truth[robot]

@@ -13,8 +13,11 @@ From the bag:
 Results (:func:`formation_results`): ``completed`` (the last round assigned roles and every
 robot of it reported ``arrived``), ``min_distance`` (least ground-truth distance between two
 robot centres over the whole recording) with its pair and ``sum_of_radii``, ``min_clearance``
-(least distance minus the pair's sum of radii), ``collisions`` (onsets of a pair closer than its
-sum of radii), and per robot of the last round its role, goal, ``arrival_time`` (s from the
+(least distance minus the pair's sum of radii), ``robot_collisions`` (onsets of a pair closer
+than its sum of radii), the robot-obstacle clearance of every robot against the map's boxes
+(:func:`.path_measures.obstacle_clearances`: ``obstacle_clearance`` per robot,
+``min_obstacle_clearance``, ``obstacle_contacts``), ``collisions`` = robot collisions + obstacle
+contacts, and per robot of the last round its role, goal, ``arrival_time`` (s from the
 round's role start to the player's ``arrived`` message), ``final_error`` (ground-truth distance
 to the goal at the end) and the tracking error (ground truth vs the commanded role at the same
 time).
@@ -29,7 +32,7 @@ import numpy as np
 from collab_tools.core.bag_analysis import read_messages
 
 from ..core.trajectory import interpolate
-from .path_measures import separation_measures
+from .path_measures import ObstacleBox, obstacle_clearances, separation_measures
 
 ASSIGNMENT = '/roles/assignment'
 CHANNEL = '/roles/channel'
@@ -132,12 +135,17 @@ def commanded_positions(roles: list[RoleRecord], times: np.ndarray, round_: int 
 
 
 # ----------------------------------------------------------------------------------- results
-def formation_results(log: FormationLog, radii: dict[str, float], arrival_tolerance: float) -> dict:
-    """results.json of a run from its bag (module docstring); never raises on an unfinished run."""
+def formation_results(log: FormationLog, radii: dict[str, float], arrival_tolerance: float,
+                      obstacles: list[ObstacleBox] | None = None) -> dict:
+    """results.json of a run from its bag (module docstring); ``obstacles``: the static boxes of the
+    simulated world (walls included) the clearance is measured against. Never raises on an unfinished run."""
     robots = sorted(radii)
     if len(log.truth_times) == 0:
         raise ValueError(f'the bag has no {GROUND_TRUTH} message with every robot ({", ".join(robots)})')
     separation = separation_measures(log.truth, radii, log.truth_times)
+    separation['robot_collisions'] = separation['collisions']
+    clearance = obstacle_clearances(log.truth, radii, list(obstacles or []), log.truth_times)
+    separation.update(clearance, collisions=separation['robot_collisions'] + clearance['obstacle_contacts'])
     final = max(log.assignments, key=lambda a: a.round) if log.assignments else None
     results = {'rounds': [{'round': a.round, 'status': a.status, 'message': a.message, 'robots': sorted(a.goals),
                            'excluded': a.excluded} for a in sorted(log.assignments, key=lambda a: a.round)],
@@ -161,7 +169,9 @@ def formation_results(log: FormationLog, radii: dict[str, float], arrival_tolera
             'final_error': final_error, 'within_tolerance': final_error <= arrival_tolerance,
             'tracking_error_rms': float(np.sqrt(np.mean(error**2))) if len(error) else None,
             'tracking_error_max': float(error.max()) if len(error) else None,
-            'process_roles_published': len(roles)}
+            'process_roles_published': len(roles),
+            'min_obstacle_clearance': clearance['obstacle_clearance'][robot]['min_clearance'],
+            'obstacle_contacts': clearance['obstacle_clearance'][robot]['contacts']}
         completed = completed and arrived is not None
     results.update({'completed': bool(completed), 'final_round': final.round if final else None,
                     'final_status': final.status if final else 'no assignment', 'arrival_tolerance': arrival_tolerance})

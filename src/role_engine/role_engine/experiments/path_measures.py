@@ -1,6 +1,9 @@
 """What ``roles-collab`` and ``roles-formation`` measure on driven paths: distances between robots,
-contacts, jerk (paper Sec. V-A-3's smoothness cost)."""
+clearance to the static obstacles, contacts, jerk (paper Sec. V-A-3's smoothness cost)."""
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,6 +37,58 @@ def separation_measures(positions: dict[str, np.ndarray], radii: dict[str, float
             'min_distance_time': float(times[k]), 'sum_of_radii': radii[closest[0]] + radii[closest[1]],
             'min_clearance': float(min(c.min() for c in clearances.values())),
             'collisions': int(sum(by_pair.values())), 'collisions_by_pair': by_pair}
+
+
+@dataclass(frozen=True)
+class ObstacleBox:
+    """A static obstacle as the simulation builds it: a box of ``size`` (m) at ``center``, rotated by ``yaw``."""
+
+    name: str
+    center: tuple[float, float]
+    size: tuple[float, float]
+    yaw: float = 0.0
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """(K,) distance from each point to the box's boundary; negative inside."""
+        p = np.asarray(points, dtype=float).reshape(-1, 2) - np.asarray(self.center, dtype=float)
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        local = np.abs(np.column_stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]]))
+        q = local - 0.5 * np.asarray(self.size, dtype=float)
+        outside = np.hypot(*np.maximum(q, 0.0).T)
+        inside = np.minimum(np.max(q, axis=1), 0.0)
+        return outside + inside
+
+
+def obstacle_clearances(positions: dict[str, np.ndarray], radii: dict[str, float], obstacles: list[ObstacleBox],
+                        times: np.ndarray) -> dict:
+    """Robot-obstacle clearance from positions over time (ground truth) and the boxes of the map.
+
+    Clearance of a robot at an instant = distance from its centre to the nearest box minus its
+    radius (the disc touches an obstacle at 0, overlaps it below). Per robot: the least clearance,
+    when, where and against which box, and its ``contacts`` (onsets of clearance < 0: a contact
+    that lasts counts once, whichever box). Overall: ``min_obstacle_clearance`` (and its robot) and
+    ``obstacle_contacts`` (the sum). Without obstacles every clearance is None and no contact.
+    """
+    per_robot: dict[str, dict] = {}
+    for robot in sorted(positions):
+        points = np.asarray(positions[robot], dtype=float).reshape(-1, 2)
+        if not obstacles or len(points) == 0:
+            per_robot[robot] = {'min_clearance': None, 'time': None, 'position': None, 'obstacle': None,
+                                'contacts': 0}
+            continue
+        distances = np.vstack([box.signed_distance(points) for box in obstacles])     # (boxes, K)
+        nearest = np.argmin(distances, axis=0)
+        clearance = distances[nearest, np.arange(len(points))] - radii[robot]
+        k = int(np.argmin(clearance))
+        per_robot[robot] = {'min_clearance': float(clearance[k]), 'time': float(times[k]),
+                            'position': [float(v) for v in points[k]], 'obstacle': obstacles[nearest[k]].name,
+                            'contacts': contact_onsets(clearance, 0.0)}
+    measured = {r: v for r, v in per_robot.items() if v['min_clearance'] is not None}
+    worst = min(measured, key=lambda r: measured[r]['min_clearance']) if measured else None
+    return {'obstacle_clearance': per_robot,
+            'min_obstacle_clearance': measured[worst]['min_clearance'] if worst else None,
+            'min_obstacle_clearance_robot': worst,
+            'obstacle_contacts': int(sum(v['contacts'] for v in per_robot.values()))}
 
 
 def finite_difference_jerk(velocities: np.ndarray, dt: float) -> np.ndarray:
