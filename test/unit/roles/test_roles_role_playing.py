@@ -154,3 +154,50 @@ def test_moving_obstacle_terms_compare_at_the_same_absolute_times():
 def test_avoidance_settings_name_the_bad_field(data, message):
     with pytest.raises(ValueError, match=message):
         AvoidanceSettings.from_mapping(data, 'settings')
+
+
+def corner_corridor():
+    """A corridor 0.6 m wide along y = 0 (x from -0.5) turning left at x = 1.0 into one along x = 1.0 (up)."""
+    resolution, origin = 0.025, (-0.6, -0.6)
+    iy, ix = np.mgrid[0:96, 0:96]
+    x, y = origin[0] + (ix + 0.5) * resolution, origin[1] + (iy + 0.5) * resolution
+    free = ((x > -0.5) & (x < 1.3) & (np.abs(y) < 0.3)) | ((np.abs(x - 1.0) < 0.3) & (y > -0.3) & (y < 1.75))
+    return Environment(~free, resolution, origin)
+
+
+def corner_role(speed=0.2, states=STATES):
+    """The corridor's centre line round the bend (a quarter circle of 0.3 m about the inner corner)."""
+    arc = np.pi * 0.3 / 2.0
+    length = 2.0 + arc
+    rows = []
+    for k, s in enumerate(np.linspace(0.0, length, states)):
+        if s <= 1.0:
+            p, d = (-0.3 + s, 0.0), (1.0, 0.0)
+        elif s <= 1.0 + arc:
+            phi = (s - 1.0) / 0.3
+            p, d = (0.7 + 0.3 * np.sin(phi), 0.3 - 0.3 * np.cos(phi)), (np.cos(phi), np.sin(phi))
+        else:
+            p, d = (1.0, 0.3 + s - 1.0 - arc), (0.0, 1.0)
+        v = np.array(d) * speed if 0 < k < states - 1 else np.zeros(2)
+        rows.append([*p, *v])
+    return np.array(rows), length / speed
+
+
+def test_a_lagging_robot_replans_from_where_it_is_along_its_role():
+    """The role's clock is round the bend, the robot 0.3 m short of it: the re-planned role starts along
+    the corridor the robot is in (not towards the clock's point across the inner corner), keeps the
+    planned timing from there, and its body stays clear of the corner."""
+    env = corner_corridor().for_robot(RobotType('r', 0.2, inflation_margin=0.03, max_linear_velocity=0.5))
+    states, total = corner_role()
+    own = SharedRole('a', states, total, 0.2)
+    clock = 6.0                                    # s: the clock's point is 1.2 m along, on the bend
+    position = own.positions([clock - 1.5])[0]     # the robot: 0.9 m along, still in the straight part
+    assert position[1] == pytest.approx(0.0, abs=1e-3) and position[0] == pytest.approx(0.6, abs=1e-3)
+    result = replan_process_role(GPPlannerConfig(**CONFIG), env, own, [], clock, position, horizon=4.0)
+    assert result.trajectory is not None
+    assert result.total_time == pytest.approx(total - (clock - 1.5), abs=0.05)
+    start_velocity = result.trajectory[0, 2:]
+    assert start_velocity[0] == pytest.approx(0.2, abs=0.02) and abs(start_velocity[1]) < 0.02
+    times = np.linspace(0.0, result.total_time, 400)
+    path = SharedRole('a', result.trajectory, result.total_time, 0.2).positions(times)
+    assert env.sdf.distance(path).min() > 0.0      # the body (radius + margin) never touches the corner

@@ -78,8 +78,10 @@ Sec. V-B, Figs. 15-16 (diamond, real robots)   role_engine.experiments.formation
                                                in simulation, measured from the bag)
 =============================================  ==================================================
 
-Supporting modules (ours): ``grid`` (cell <-> world), ``occupancy`` (Environment <-> Nav2
-OccupancyGrid cells), ``formation_task`` (the nodes' settings file, the team, the typed GP
+Supporting modules (ours): ``grid`` (cell <-> world), ``environment`` (also the map files: Nav2
+map YAMLs, read by ``pybullet_bridge.core.occupancy_map.read_nav2_map`` as the bridge reads them),
+``occupancy`` (Environment <-> Nav2 OccupancyGrid cells), ``controller`` (the role players' path
+tracking, shared by the node and roles-collab through ``player``), ``formation_task`` (the nodes' settings file, the team, the typed GP
 evaluator), ``tuning`` (run-time tuning of the nodes), ``node_settings`` (the nodes' ROS
 parameters as SettingsSchemas), ``errors`` (RoleEngineError, a ConfigurationError).
 

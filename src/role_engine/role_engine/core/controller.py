@@ -2,17 +2,33 @@
 
 The process role gives positions and velocities only; the paper drives the robots with
 a separate kinematic controller (ref. [26]) that turns them into linear and angular
-velocity commands. Used here: the classic unicycle tracking law of Kanayama et al.
-(1990). With the reference pose (x_r, y_r, theta_r) and velocities (v_r, w_r) taken
-from the role at time t (heading and turn rate from its velocity and acceleration) and
-the error expressed in the robot frame (e_x ahead, e_y left, e_theta):
+velocity commands. Used here: the unicycle tracking law of Kanayama et al. (1990), applied
+to the point of the role's *path* nearest the robot rather than to the point the role's
+clock names. With the reference pose (x_r, y_r, theta_r) at the projection time tau (the
+time in ``[t - PROJECTION_BACK, t + PROJECTION_AHEAD]``, t clipped to the role, whose role
+position is nearest the robot: trajectory.nearest_sample), the path's curvature kappa and
+speed v_r there, the error in the robot frame (e_x ahead, e_y left, e_theta) and the lag
+``l`` = arc length of the role from tau to t (> 0: the role's clock is ahead of the robot):
 
-    v = v_r cos(e_theta) + k_x e_x
-    w = w_r + v_r (k_y e_y + k_theta sin(e_theta))
+    v = v_r cos(e_theta) + k_x (e_x + l),  |v| <= CATCH_UP max(v_r, v_r(t))
+    w = kappa v + v_r (k_y e_y + k_theta sin(e_theta))
+
+(the speed cap: a robot that lags catches up at most CATCH_UP times as fast as its role -- which
+the GP keeps under its speed limit -- not in a sprint at the platform's limit through a narrow passage, which is
+where a lagging robot overshot its goal and touched the pillars before).
+
+Why the projection: a robot that lags behind its role and steers at the clock's point cuts
+every bend (the point lies round the corner, so the lateral error points across the
+inside of the bend) -- into the obstacle the role was planned to clear by the GP's epsilon.
+Measured against the nearest path point the lateral error stays the robot's distance from
+the planned path, and the lag only sets the speed (the robot catches up along the path).
+Where the path is (nearly) at rest at tau (its start, a waiting spot, its end), the clock's
+point is tracked as in Kanayama's law (tau = t); a robot still short of the end of a role
+whose time is over keeps following the path to it.
 
 The command is then clamped to the robot type's limits (``max_linear_velocity``,
 ``max_angular_velocity``; the bridge clamps accelerations itself). Where the reference
-is (nearly) at rest its heading is undefined: the robot then turns toward the reference
+is (nearly) at rest at t its heading is undefined: the robot then turns toward the reference
 point when it is more than ``position_tolerance`` away, else stops.
 """
 from __future__ import annotations
@@ -24,10 +40,12 @@ import numpy as np
 
 from .environment import RobotType
 from .errors import RoleEngineError
-from .trajectory import check_trajectory, interpolate
+from .trajectory import PROJECTION_STEP, check_trajectory, interpolate, nearest_sample
 
 #: Reference speed (m/s) below which the reference heading is taken as undefined.
 REST_SPEED = 1e-3
+#: A lagging robot drives at most this many times the role's speed (here or at its clock).
+CATCH_UP = 1.5
 
 
 @dataclass(frozen=True)
@@ -66,6 +84,15 @@ class TrajectoryFollower:
         self.robot_type = robot_type
         self.gains = gains
         self.position_tolerance = position_tolerance
+        # The role sampled densely once: positions, velocities, accelerations and arc length.
+        self._times = np.linspace(0.0, self.total_time, max(2, int(math.ceil(self.total_time / PROJECTION_STEP)) + 1))
+        self._positions, self._velocities, self._accelerations = interpolate(self.states, self.total_time,
+                                                                             self._times)
+        # The role rests at its end from total_time on (trajectory.interpolate): so does its last sample.
+        self._velocities[-1] = 0.0
+        self._accelerations[-1] = 0.0
+        steps = np.hypot(*np.diff(self._positions, axis=0).T)
+        self._arc = np.concatenate([[0.0], np.cumsum(steps)])
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration of the role at time ``t`` (s from its start)."""
@@ -76,17 +103,30 @@ class TrajectoryFollower:
         """The role is over and the robot stands within ``position_tolerance`` of its end."""
         return t >= self.total_time and math.dist(pose[:2], self.states[-1, :2]) <= self.position_tolerance
 
+    def projection(self, t: float, point) -> int:
+        """Index (into the dense samples) of the role position nearest ``point`` within
+        ``[t - PROJECTION_BACK, t + PROJECTION_AHEAD]`` (t clipped to the role; trajectory.nearest_sample)."""
+        return nearest_sample(self._times, self._positions, point, t)
+
     def command(self, t: float, pose) -> tuple[float, float]:
-        """(linear m/s, angular rad/s) for the robot at ``pose`` = (x, y, yaw) at time ``t``."""
+        """(linear m/s, angular rad/s) for the robot at ``pose`` = (x, y, yaw) at time ``t`` (module docstring)."""
         x, y, yaw = (float(v) for v in pose)
         if not all(math.isfinite(v) for v in (x, y, yaw, t)):
             raise RoleEngineError(f'controller: pose and time must be finite (got {pose}, {t})')
-        position, velocity, acceleration = self.reference(t)
-        dx, dy = position[0] - x, position[1] - y
-        e_x = math.cos(yaw) * dx + math.sin(yaw) * dy
-        e_y = -math.sin(yaw) * dx + math.cos(yaw) * dy
-        speed = float(np.hypot(*velocity))
         gains = self.gains
+        k = self.projection(t, (x, y))
+        lag = 0.0
+        if float(np.hypot(*self._velocities[k])) >= REST_SPEED:
+            # Follow the path from the nearest point; the role's clock only sets the speed.
+            position, velocity, acceleration = self._positions[k], self._velocities[k], self._accelerations[k]
+            lag = float(np.interp(min(t, self.total_time), self._times, self._arc) - self._arc[k])
+        else:
+            position, velocity, acceleration = self.reference(t)
+        speed = float(np.hypot(*velocity))
+        # At most CATCH_UP x what the role asks for, here or at its clock: a robot that lags catches up
+        # a little faster than its role, not in a sprint at the platform's limit through a narrow passage.
+        cruise = CATCH_UP * max(speed, float(np.hypot(*self.reference(t)[1])))
+        dx, dy = position[0] - x, position[1] - y
         if speed < REST_SPEED:
             distance = math.hypot(dx, dy)
             if distance <= self.position_tolerance:
@@ -95,11 +135,14 @@ class TrajectoryFollower:
             # Drive only while roughly facing the point, so the robot never swings wide.
             linear = gains.k_approach * distance * max(math.cos(bearing), 0.0) ** 2
             return self._clamp(linear, gains.k_turn * bearing)
+        e_x = math.cos(yaw) * dx + math.sin(yaw) * dy
+        e_y = -math.sin(yaw) * dx + math.cos(yaw) * dy
         heading = math.atan2(velocity[1], velocity[0])
-        turn_rate = (velocity[0] * acceleration[1] - velocity[1] * acceleration[0]) / speed**2
+        curvature = (velocity[0] * acceleration[1] - velocity[1] * acceleration[0]) / speed**3
         e_theta = wrap_angle(heading - yaw)
-        linear = speed * math.cos(e_theta) + gains.k_x * e_x
-        angular = turn_rate + speed * (gains.k_y * e_y + gains.k_theta * math.sin(e_theta))
+        linear = min(max(speed * math.cos(e_theta) + gains.k_x * (e_x + lag), -cruise), cruise)
+        linear, _ = self._clamp(linear, 0.0)
+        angular = curvature * linear + speed * (gains.k_y * e_y + gains.k_theta * math.sin(e_theta))
         return self._clamp(linear, angular)
 
     def _clamp(self, linear: float, angular: float) -> tuple[float, float]:

@@ -53,7 +53,7 @@ from .environment import RobotEnvironment
 from .errors import RoleEngineError, check_count, check_real
 from .gp_costs import CostTerm, InterpolatedMovingObstacleTerm, MovingObstacleTerm
 from .gp_planner import GPPlanner, GPPlannerConfig, GPPlanResult
-from .trajectory import interpolate
+from .trajectory import interpolate, nearest_time
 from .yielding import right_of_way, waiting_plans
 
 #: Speed used to time a detour's ramps when the planner has no speed limit [m/s].
@@ -219,9 +219,15 @@ def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnviron
                         min_remaining: float = 1.0, avoidance: AvoidanceSettings | None = None) -> Replan:
     """Algorithm 4 lines 3-6: conflicts with the others' roles, then GP inference from here.
 
-    The remaining part of the own role, resampled from ``now`` with the same number of
-    states, is the warm start; the start state is the tracked ``position`` with the role's
-    velocity at ``now``, the goal the role's destination at rest. The others are moving
+    The remaining part of the own role from where the robot is along it (the role time whose
+    position is nearest the tracked ``position``, searched around the role's clock:
+    trajectory.nearest_time), resampled with the same number of states and timed as the role
+    planned it, is the warm start; the start state is the tracked ``position`` with the role's
+    velocity there, the goal the role's destination at rest. (Resampling from the clock instead
+    would, for a robot that lags, start with a chord from the robot straight to the clock's point
+    -- across the inside of a bend, into the obstacle the role went round -- and with the clock's
+    velocity, which round a bend points elsewhere: the re-planned role then swings across the
+    corridor at every re-plan.) The others are moving
     obstacles at the same times; when the warm-started plan still comes too close to one,
     detour initialisations are optimised too, and when none of those is collision-free and
     wall-free either, the narrow-passage rule of :mod:`.yielding` decides: the robot either
@@ -230,7 +236,9 @@ def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnviron
     seconds left the role is kept (nothing left worth re-optimising).
     """
     avoidance = AvoidanceSettings() if avoidance is None else avoidance
-    elapsed = now - own.start_time
+    # Where the robot is along its role (the nearest point of the role's path around its clock), not
+    # where the clock says: the rest of the role from there is the warm start, timed as planned.
+    elapsed = nearest_time(own.trajectory, own.total_time, position, now - own.start_time)
     remaining = own.total_time - elapsed
     if remaining < min_remaining:
         return Replan(None, own.start_time, own.total_time, [], 'role nearly over')

@@ -61,3 +61,32 @@ def densify(trajectory: np.ndarray, total_time: float,
     times = np.linspace(0.0, total_time, (len(states) - 1) * int(samples_per_interval) + 1)
     positions, velocities, _ = interpolate(states, total_time, times)
     return times, positions, velocities
+
+
+#: Window of the nearest-path-point search around a role's clock (s behind, s ahead) and its step (s).
+PROJECTION_BACK = 3.0
+PROJECTION_AHEAD = 1.0
+PROJECTION_STEP = 0.02
+
+
+def nearest_sample(times: np.ndarray, positions: np.ndarray, point, around: float,
+                   back: float = PROJECTION_BACK, ahead: float = PROJECTION_AHEAD) -> int:
+    """Index of the sample (``times`` (K,) increasing, ``positions`` (K, 2)) nearest ``point`` among those
+    timed in ``[around - back, around + ahead]`` (``around`` clipped to the samples' span); the earliest
+    of equally near ones. Where a robot is along its role, whatever the role's clock says."""
+    around = min(max(float(around), float(times[0])), float(times[-1]))
+    low = int(np.searchsorted(times, around - back, side='left'))
+    high = int(np.searchsorted(times, around + ahead, side='right'))
+    low = min(low, len(times) - 1)
+    high = max(high, low + 1)
+    distances = np.hypot(*(positions[low:high] - np.asarray(point, dtype=float)).T)
+    return low + int(np.argmin(distances))
+
+
+def nearest_time(trajectory: np.ndarray, total_time: float, point, around: float,
+                 step: float = PROJECTION_STEP) -> float:
+    """The role time (s from its start, in [0, total_time]) whose position is nearest ``point`` within
+    the window of :func:`nearest_sample` around ``around``, on samples ``step`` s apart."""
+    times = np.linspace(0.0, total_time, max(2, int(math.ceil(total_time / step)) + 1))
+    positions = interpolate(trajectory, total_time, times)[0]
+    return float(times[nearest_sample(times, positions, point, around)])
