@@ -120,7 +120,7 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
                                       predicate=lambda m: m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
     assert leader.state == AgentStatus.COMMITTED and tuple(leader.members) == (LEADER, HELPER), leader.detail
 
-    commands = SimWindow(node, Twist, f'/{LEADER}/cmd_vel', 10)
+    commands = SimWindow(node, Twist, f'/{LEADER}/cmd_vel', 10, wall_timeout=90.0)  # formation first; slow under load
     # tick_period: the leader commands cmd_vel once per tick.
     fast = len(commands.collect(3.0))
     assert set_one(session, AGENT, 'tick_period', 0.5).successful
