@@ -1,6 +1,6 @@
 """The settings of Tables III and IV (and of the GPMP benchmark): ``config/roles/experiments.yaml``, validated.
 
-Command-line inputs of ``roles-table3`` / ``roles-table4`` (:func:`table_options`):
+Command-line inputs of ``roles-table3`` / ``roles-table4`` (:func:`request_config`):
 ``--config FILE`` (another experiments file), ``--maps YAML [YAML ...]`` (Nav2 map YAMLs that
 replace the file's environments, each named by its stem), or ``--map-image PNG --resolution R
 [--origin X Y [YAW]]`` (one image; a Nav2 YAML for it is written into the run directory), then
@@ -334,8 +334,10 @@ def image_map_yaml(image: str | Path, resolution, origin, run_dir) -> Path:
     return path
 
 
-def table_options(request) -> dict:
-    """The table experiments' input options of a request, as table_config's keywords."""
-    return dict(config_file=request.option('config'), maps=request.option('maps'),
-                map_image=request.option('map_image'), resolution=request.option('resolution'),
-                origin=request.option('origin'), run_dir=request.run_dir)
+def request_config(request) -> ExperimentConfig:
+    """The table experiments' configuration from a request's options (roles-table3 and roles-table4)."""
+    return table_config(request.config_dir, request.option('only'), request.option('sigma_obs'),
+                        request.option('problems_per_environment'), config_file=request.option('config'),
+                        maps=request.option('maps'), map_image=request.option('map_image'),
+                        resolution=request.option('resolution'), origin=request.option('origin'),
+                        run_dir=request.run_dir)

@@ -14,7 +14,7 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 
 from ..core.assignment import group_role_assignment
 from ..core.negotiation import negotiate_roles
-from .config import INITIALISATIONS, ExperimentConfig, table_config, table_options
+from .config import INITIALISATIONS, ExperimentConfig, request_config
 from .gp_sweep import (Log, all_pair_measures, assigned_measures, evaluate_problem, finite_or_none, number_text,
                        percent, sweep_tables)
 from .table_report import breakdown_markdown, closing_markdown, plot_examples, plot_per_environment
@@ -58,9 +58,7 @@ class Initialisations:
 
 
 def run(request: ExperimentRequest) -> ExperimentResult:
-    config = table_config(request.config_dir, request.option('only'), request.option('sigma_obs'),
-                          request.option('problems_per_environment'), **table_options(request))
-    return run_table3(config, request.run_dir, request.log)
+    return run_table3(request_config(request), request.run_dir, request.log)
 
 
 def run_table3(config: ExperimentConfig, run_dir, log: Log = print) -> ExperimentResult:

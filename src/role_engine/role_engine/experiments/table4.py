@@ -15,7 +15,7 @@ from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 
 from ..core.assignment import group_role_assignment, nearest_neighbour_assignment
 from ..core.negotiation import negotiate_roles
-from .config import ExperimentConfig, table_config, table_options
+from .config import ExperimentConfig, request_config
 from .gp_sweep import (Log, all_pair_measures, assigned_measures, evaluate_problem, finite_or_none, number_text,
                        percent, sweep_tables)
 from .table_report import breakdown_markdown, closing_markdown, plot_examples, plot_per_environment
@@ -62,9 +62,7 @@ class Associations:
 
 
 def run(request: ExperimentRequest) -> ExperimentResult:
-    config = table_config(request.config_dir, request.option('only'), request.option('sigma_obs'),
-                          request.option('problems_per_environment'), **table_options(request))
-    return run_table4(config, request.run_dir, request.log)
+    return run_table4(request_config(request), request.run_dir, request.log)
 
 
 def run_table4(config: ExperimentConfig, run_dir, log: Log = print) -> ExperimentResult:
