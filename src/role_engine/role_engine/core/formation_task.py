@@ -33,7 +33,6 @@ needs ``min_robots`` robots; with fewer usable ones the task is not negotiable (
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
