@@ -32,7 +32,7 @@ def test_player_defaults_are_the_settings_file_and_the_robot_type_limits(task):
     assert (values['max_linear_velocity'], values['max_angular_velocity']) == (0.22, 2.84)
     # Parameter types follow the values: floats stay floats, counts ints, the formulation a string.
     assert isinstance(values['gp.epsilon'], float) and isinstance(values['gp.max_iterations'], int)
-    assert isinstance(values['robot_avoidance.interpolation'], int) and values['gp.formulation'] == 'vectorised'
+    assert isinstance(values['robot_avoidance.interpolation'], int) and values['gp.formulation'] == 'compiled'
     # Without a change the GP settings of a re-plan are the team-wide ones.
     assert tuning.gp_config() == task.gp_config(BURGER)
 
@@ -68,12 +68,15 @@ def test_every_player_value_reaches_what_the_node_builds(task):
 def test_the_velocity_caps_clamp_the_commands(task):
     trajectory = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 4.0, 10)
     tuning = PlayerTuning.from_task(task, BURGER)
-    pose = (-0.5, 0.3, 1.0)                                 # behind, beside and turned away: big corrections
-    linear, angular = tuning.follower(trajectory, 4.0).command(1.0, pose)
-    assert (abs(linear), abs(angular)) == (0.22, 2.84)
+    behind = (-0.5, 0.0, 0.0)                               # on the path, behind its clock: catches up
+    beside = (-0.5, 0.3, 0.6)                               # beside it and turned away: a hard turn back
     capped = tuning.with_values({'max_linear_velocity': 0.05, 'max_angular_velocity': 0.5})
-    linear, angular = capped.follower(trajectory, 4.0).command(1.0, pose)
-    assert (abs(linear), abs(angular)) == (0.05, 0.5)
+    assert tuning.follower(trajectory, 4.0).command(1.0, behind) == (0.22, 0.0)
+    assert capped.follower(trajectory, 4.0).command(1.0, behind) == (0.05, 0.0)
+    # A saturated turn keeps its curvature (the robot slows down on the same arc), under either cap.
+    for limits, (cap_v, cap_w) in ((tuning, (0.22, 2.84)), (capped, (0.05, 0.5))):
+        linear, angular = limits.follower(trajectory, 4.0).command(1.0, beside)
+        assert abs(angular) == cap_w and 0.0 < linear < cap_v
 
 
 def test_no_detour_is_zero_scales(task):
@@ -131,7 +134,7 @@ def test_controller_gains_come_from_the_settings_file(tmp_path, config_dir):
     path = tmp_path / 'settings.yaml'
     path.write_text(yaml.safe_dump(data))
     task = load_formation_task(path)
-    assert (task.controller.k_x, task.controller.k_y) == (2.5, 8.0)    # the others keep their defaults
+    assert (task.controller.k_x, task.controller.k_y) == (2.5, 20.0)   # the others keep their defaults
     data['controller'] = {'k_x': -1.0}
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(ValueError, match='controller.k_x'):

@@ -30,8 +30,10 @@ Eq. 10 inter-robot factor (MA-GPMP's idea)     gp_costs (MovingObstacleTerm,
                                                InterpolatedMovingObstacleTerm), role_playing
                                                (moving_obstacle_terms)
 Eq. 11 MAP problem; Eq. 12 linearised LM step  gp_planner (GPPlanner, GPPlannerConfig);
-                                               gp_vectorised (banded normal equations, own LM),
-                                               gp_gtsam (LevenbergMarquardtOptimizer)
+                                               gp_compiled (the terms packed for gp_kernels: the
+                                               numba LM, the default), gp_vectorised (banded
+                                               normal equations, own LM), gp_gtsam
+                                               (LevenbergMarquardtOptimizer, the reference)
 Eq. 13 qualification q = lambda F_gp + F_conf  qualification (qualification,
                                                qualification_matrix)
 Eq. 14 F_gp                                    qualification (ProcessRoleEvaluation.prior_cost;

@@ -13,13 +13,16 @@ the previous solution when re-planning: that is the warm start). The cost is
 * any extra :class:`~.gp_costs.CostTerm` the caller adds, e.g.
   :class:`~.gp_costs.MovingObstacleTerm` for other robots' shared process roles.
 
-Two formulations minimise the same cost with the same LM rules: ``'vectorised'`` (numpy,
+Three formulations minimise the same cost with the same LM rules: ``'compiled'`` (the terms
+packed into arrays, residuals and Jacobians in one pass, block-tridiagonal normal equations and
+the whole LM loop in numba; :mod:`.gp_compiled`, :mod:`.gp_kernels`), ``'vectorised'`` (numpy,
 banded normal equations; :mod:`.gp_vectorised`) and ``'gtsam'`` (factor graph with
-``WnoaMotionFactorPoint2`` and ``CustomFactor``; :mod:`.gp_gtsam`). ``scripts/bench gpmp``
-(:mod:`role_engine.experiments.benchmark`) times them on identical problems; the vectorised one is the
-default because it is about 30x faster there (100 states, 200 x 200 map; the Python callbacks
-of the CustomFactors dominate the gtsam one) at the same final cost. The gtsam graph stays
-available for ISAM2.
+``WnoaMotionFactorPoint2`` and ``CustomFactor``; :mod:`.gp_gtsam`, the reference).
+``scripts/bench gpmp`` (:mod:`role_engine.experiments.benchmark`) times the three on identical
+problems and compares their final costs. The compiled one is the default (the role player's
+re-plans, the engine's evaluations, the tables); a problem it cannot take (a term kind without
+a compiled form, an analytic SDF) runs the vectorised formulation instead, and the result's
+``formulation`` says which one ran. The gtsam graph stays available for ISAM2.
 
 Choices where the paper is silent: sigmas are standard deviations (GPMP2's convention);
 the start and goal states default to the first and last rows of the initial trajectory; a
@@ -35,7 +38,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import gp_gtsam
+from . import gp_compiled, gp_gtsam
 from .errors import RoleEngineError, check_count, check_real
 from .gp_costs import (CostTerm, GPPriorTerm, InterpolatedObstacleTerm, ObstacleTerm, SignedDistanceQuery,
                        StatePriorTerm, VelocityLimitTerm, query_sdf, term_costs)
@@ -43,7 +46,7 @@ from .gp_prior import POSITION_DIM, STATE_DIM, interpolate_states
 from .gp_vectorised import LMSettings, SolveOutcome, VectorisedProblem, levenberg_marquardt
 
 #: Formulations :meth:`GPPlanner.plan` can use.
-FORMULATIONS = ('vectorised', 'gtsam')
+FORMULATIONS = ('vectorised', 'gtsam', 'compiled')
 
 
 def _fail(path: str, message: str) -> RoleEngineError:
@@ -84,8 +87,8 @@ class GPPlannerConfig:
     lambda_initial: float = 1e-5
     #: GP-interpolated instants per interval also checked by ``collision_free`` / ``min_clearance``.
     collision_check_interpolation: int = 4
-    #: 'vectorised' or 'gtsam'.
-    formulation: str = 'vectorised'
+    #: 'compiled' (numba), 'vectorised' (numpy) or 'gtsam' (the reference).
+    formulation: str = 'compiled'
 
     def __post_init__(self) -> None:
         path = type(self).__name__
@@ -199,9 +202,13 @@ class GPPlanner:
             raise _fail('formulation', f'must be one of {", ".join(FORMULATIONS)} (got {formulation!r})')
         states, total_time, start, goal, extra = self._check_problem(initial, total_time, start, goal, extra_terms)
         terms = self.terms(states.shape[0], total_time, start, goal, extra)
+        compiled = gp_compiled.compile_problem(terms, states.shape[0]) if formulation == 'compiled' else None
         if formulation == 'gtsam':
             outcome = gp_gtsam.optimise(terms, states, self.config.lm_settings)
+        elif compiled is not None:
+            outcome = gp_compiled.optimise(compiled, states, self.config.lm_settings)
         else:
+            formulation = 'vectorised'
             outcome = levenberg_marquardt(VectorisedProblem(terms, states.shape[0]), states,
                                           self.config.lm_settings)
         return self._result(outcome, terms, total_time, formulation)
@@ -228,7 +235,7 @@ class GPPlanner:
         return GPPlanResult(
             trajectory=outcome.trajectory, times=np.linspace(0.0, total_time, state_count),
             cost=outcome.cost, initial_cost=outcome.initial_cost,
-            term_costs=term_costs(terms, outcome.trajectory),
+            term_costs=getattr(outcome, 'term_costs', None) or term_costs(terms, outcome.trajectory),
             iterations=outcome.iterations, converged=outcome.converged,
             min_clearance=clearance, collision_free=clearance >= 0.0,
             formulation=formulation, cost_history=outcome.cost_history)

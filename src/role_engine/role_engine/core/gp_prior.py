@@ -14,6 +14,8 @@ vectorised least squares) and by the tests that check gtsam's factor against Eq.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .errors import RoleEngineError
@@ -124,10 +126,19 @@ def interpolation_stack(count: int, dt: float) -> tuple[np.ndarray, np.ndarray, 
     Returns ``taus (count,)``, ``Lambdas (count, 4, 4)`` and ``Psis (count, 4, 4)`` for
     ``tau_i = (i + 1) dt / (count + 1)``.
     """
+    return _interpolation_stack(int(count), float(dt))
+
+
+@functools.lru_cache(maxsize=64)
+def _interpolation_stack(count: int, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`interpolation_stack`, computed once per (count, dt): every plan and clearance check of a
+    planner asks for the same matrices. The arrays are read-only (they are shared)."""
     taus = dt * np.arange(1, count + 1) / (count + 1)
     pairs = [interpolation_matrices(tau, dt) for tau in taus]
     lambdas = np.array([pair[0] for pair in pairs]).reshape(count, STATE_DIM, STATE_DIM)
     psis = np.array([pair[1] for pair in pairs]).reshape(count, STATE_DIM, STATE_DIM)
+    for array in (taus, lambdas, psis):
+        array.setflags(write=False)
     return taus, lambdas, psis
 
 
