@@ -15,7 +15,9 @@ Paper                                           Module (main names)
 Sec. III workspace cells, object types,         task_config (TaskConfig, load_task);
 goals; Sec. V set-up (3x3 grid, colours,        config/sgcm/task.yaml documents every field
 bottom-row goals)
-Sec. III state s (objects per cell and type)    rearrangement (RearrangementModel.state_of, key)
+Sec. III state s (objects per cell and type)    rearrangement (RearrangementModel.state_of, key);
+                                                game_tables (GameTables: the game as integer and
+                                                float arrays for the compiled kernel)
 Sec. III actions A^A (8 directions), A^B (4),   rearrangement (ActionTable, Move, feasible,
 the empty action                                can_apply, apply)
 Sec. III p_fail^A, p_fail^B; the four outcomes  rearrangement (RearrangementModel.stage: outcome
@@ -32,10 +34,17 @@ J^i, discount gamma, horizon T                  task_config (TaskConfig.discount
                                                 follower action, exact)
 KKT conditions (1), big-M                       stage_game (big_m, solve_milp)
 (Q~_t^B), (Q~_t^A) MIQP -> MILP with z_t        stage_game (solve_milp, HiGHS)
-Sec. IV-A dynamic programming for the FSE       fse (FSEPlanner.plan: backward over S_T-1 .. S_0)
+Sec. IV-A dynamic programming for the FSE       fse (FSEPlanner.plan: backward over S_T-1 .. S_0,
+                                                the reference); fse_compiled (CompiledFSEPlanner,
+                                                the default: the same on the compiled kernel;
+                                                make_planner, PLANNER_PATHS)
 Remark (Sec. IV-B) reachable sets S_0..S_T      fse (FSEPlanner._expand: forward prediction)
-Algorithm 1 lines 3-10 forward prediction       fse (FSEPlanner._expand)
-Algorithm 1 lines 11-18 dynamic programming     fse (FSEPlanner.plan), stage_game
+Algorithm 1 lines 3-10 forward prediction       fse (FSEPlanner._expand); fse_kernel (expand_level)
+Algorithm 1 lines 11-18 dynamic programming     fse (FSEPlanner.plan), stage_game; fse_kernel
+                                                (solve_level_pure: a whole stage, cooperative
+                                                games settled by their maximal entry;
+                                                level_games: U^A, U^B for the stage_game
+                                                solvers in general-sum games)
 Algorithm 1 line 19 leader executes pi_0^A*,    leader_round (LeaderRound.observe -> LeaderTurn:
 recommends pi_0^B* (rolling horizon, Sec. IV-C) her move, sampled if mixed; the recommendation)
 Algorithm 1 lines 20-23 observe, stop at goal   leader_round (LeaderRound.observe: goal, stuck,
@@ -74,7 +83,9 @@ Choices where the paper is silent (each documented where it is made)
 * A robot's action set holds only moves between cells its arm reaches: rearrangement (ActionTable),
   from workspace_layout (where the arms stand, cell and cube sizes for grids up to 10 x 10).
 * Tie-breaking among equilibria (strong Stackelberg, then the follower's value, then the lowest
-  follower action, a pure leader strategy when one attains the values): stage_game.
+  follower action, a pure leader strategy when one attains the values): stage_game; the kernel's
+  cooperative shortcut repeats it (maximal entry, lowest follower action, then lowest leader
+  action, within the solver's tolerance): fse_kernel.
 * When a task is stuck (the paper's greedy "gets stuck in the last state", Fig. 3): stuck_rule --
   a state comes back after rounds in which nothing was left to chance (no failure possible or
   seen, no random draw), which includes a round with both arms idle.

@@ -27,6 +27,7 @@ import numpy as np
 
 from .follower_behaviour import Follower, FollowerChoice, FollowerSettings, greedy_action
 from .fse import FSEPlanner
+from .fse_compiled import CompiledFSEPlanner
 from .leader_round import Ending, LeaderRound, LeaderTurn, TaskEnd
 from .rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .stuck_rule import MoveOutcome
@@ -147,11 +148,11 @@ def _play(leader: LeaderRound, method: str, initial: np.ndarray, follower_turn: 
 
 
 def run_sgcm(model: RearrangementModel, initial: np.ndarray, follower: FollowerSettings | None = None,
-             planner: FSEPlanner | None = None, simulate_failures: bool = False, seed: int = 0,
-             round_limit: int | None = None, progress=None) -> EpisodeResult:
+             planner: CompiledFSEPlanner | FSEPlanner | None = None, simulate_failures: bool = False,
+             seed: int = 0, round_limit: int | None = None, progress=None) -> EpisodeResult:
     """Algorithm 1: plan the FSE at the observed state, leader moves, follower responds, repeat."""
     rng = np.random.default_rng(seed)  # one stream: mixed commitments and move failures, in round order
-    leader = LeaderRound(model, 'sgcm', planner or FSEPlanner(model), rng, round_limit,
+    leader = LeaderRound(model, 'sgcm', planner, rng, round_limit,   # None: the kernel path
                          moves_can_fail=simulate_failures)
     follower_model = Follower(model, follower or FollowerSettings(), seed=seed + 1)
 

@@ -12,6 +12,10 @@ this order, each time the leader observes the state at the start of a round:
    a mixed commitment is sampled with her seeded generator) or, for the Section V-A baseline
    (``greedy``), her own one-stage greedy move and no guidance.
 
+Her planner is the compiled kernel by default (:mod:`.fse_compiled`); the reference
+(:class:`.fse.FSEPlanner`: numpy and a stage-game solver per state) gives the same values and
+actions and stays selectable (:func:`.fse_compiled.make_planner`, the node's ``planner`` setting).
+
 After the follower's part she reports the round's outcome (:meth:`LeaderRound.round_over`).
 """
 from __future__ import annotations
@@ -23,6 +27,7 @@ import numpy as np
 
 from .follower_behaviour import greedy_action
 from .fse import FSEPlanner, FSEResult
+from .fse_compiled import CompiledFSEPlanner, make_planner
 from .rearrangement import EMPTY, LEADER, RearrangementModel
 from .stuck_rule import MoveOutcome, RoundCertainty, StuckRule
 
@@ -77,19 +82,21 @@ class LeaderTurn:
 class LeaderRound:
     """The leader's side of the rounds of one task; see the module docstring.
 
-    planner: the FSE planner (``sgcm``; replaceable between rounds, e.g. a new horizon);
+    planner: the FSE planner (``sgcm``; replaceable between rounds, e.g. a new horizon; default: the
+    kernel path at the task's horizon);
     rng: samples mixed commitments; round_limit: None = the task file's game.round_limit;
     moves_can_fail: whether moves may fail by chance (see :mod:`.stuck_rule`).
     """
 
-    def __init__(self, model: RearrangementModel, strategy: str = 'sgcm', planner: FSEPlanner | None = None,
+    def __init__(self, model: RearrangementModel, strategy: str = 'sgcm',
+                 planner: CompiledFSEPlanner | FSEPlanner | None = None,
                  rng: np.random.Generator | None = None, round_limit: int | None = None,
                  moves_can_fail: bool = False):
         if strategy not in STRATEGIES:
             raise ValueError(f"strategy: must be one of {', '.join(STRATEGIES)} (got '{strategy}')")
         self.model = model
         self.strategy = strategy
-        self.planner = planner or (FSEPlanner(model) if strategy == 'sgcm' else None)
+        self.planner = planner or (make_planner(model) if strategy == 'sgcm' else None)
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.round_limit = round_limit
         self.stuck_rule = StuckRule(moves_can_fail)

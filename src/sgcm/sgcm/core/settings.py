@@ -16,6 +16,7 @@ from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.settings import Setting, SettingsSchema
 
 from .follower_behaviour import BEHAVIOURS, FollowerSettings
+from .fse_compiled import PLANNER_PATHS
 from .leader_round import STRATEGIES
 from .stage_game import SOLVERS
 from .task_config import MAX_HORIZON, TaskConfig, TaskConfigError, load_task
@@ -40,7 +41,10 @@ LEADER_SETTINGS = SettingsSchema(
     TASK_FILE,
     Setting('horizon', 0, 'T, the prediction horizon; 0 = the task file game.horizon (applied from the next '
             'round)', low=0, high=MAX_HORIZON, dynamic=True),
-    Setting('solver', 'fast', 'stage-game solver', choices=tuple(SOLVERS)),
+    Setting('solver', 'fast', 'stage-game solver (general-sum games; a cooperative game, U^A = U^B, is settled '
+            'by its maximal entry on the kernel path)', choices=tuple(SOLVERS)),
+    Setting('planner', 'kernel', 'FSE path: kernel (compiled, sgcm.core.fse_compiled) | reference (numpy and the '
+            'stage-game solver per state, sgcm.core.fse; for cross-checks)', choices=PLANNER_PATHS),
     Setting('strategy', 'sgcm', 'sgcm (guidance) | greedy (baseline: no guidance)', choices=STRATEGIES),
     CAMERA,
     IMAGE_TRANSPORT,
@@ -88,6 +92,7 @@ class LeaderSettings:
     task: TaskConfig
     horizon: int               # T; the task's game.horizon when the parameter is 0
     solver: str
+    planner: str               # FSE path: kernel | reference
     strategy: str
     camera: str
     image_transport: str
@@ -103,7 +108,8 @@ class LeaderSettings:
         """``values``: LEADER_SETTINGS' validated values (as declare_schema returns them)."""
         task = read_task_parameter(values['task_file'])
         return cls(task=task, horizon=values['horizon'] or task.horizon, solver=values['solver'],
-                   strategy=values['strategy'], camera=values['camera'], image_transport=values['image_transport'],
+                   planner=values['planner'], strategy=values['strategy'], camera=values['camera'],
+                   image_transport=values['image_transport'],
                    follower_timeout=values['follower_timeout'], settle_time=values['settle_time'],
                    round_limit=values['round_limit'] or None, seed=values['seed'],
                    moves_can_fail=values['moves_can_fail'], exit_when_done=values['exit_when_done'])

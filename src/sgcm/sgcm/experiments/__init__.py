@@ -10,7 +10,8 @@ table or figure, run by ``scripts/experiment`` through :data:`EXPERIMENTS`:
 Helpers: :mod:`.inputs` (task, cases and the options both take), :mod:`.case_plots` (one panel
 per case), :mod:`.sim_runner` (a case through the nodes, read back from its bag),
 :mod:`.report_plots` (the ``scripts/report`` plot of a Guidance bag) and :mod:`.benchmark`
-(``scripts/bench sgcm``: leader compute time per round, MILP vs fast stage-game solver).
+(``scripts/bench sgcm``: the leader's round on the kernel and the reference path, T = 1..4, and
+the MILP vs the fast stage-game solver).
 
 Only light imports here: listing the experiments must not load their code.
 """
@@ -24,6 +25,9 @@ CASE_OPTIONS = (
     Option('--cases', 'cases file (default: config/sgcm/cases.yaml)'),
     Option('--horizon', 'override game.horizon (T)', type=int),
     Option('--only', 'run only these cases', nargs='+', metavar='CASE'),
+    Option('--planner', "core mode: the leader's FSE path, kernel (compiled, the default) or reference (numpy and a "
+                        'stage-game solver per state; same values, for cross-checks)',
+           choices=('kernel', 'reference'), default='kernel'),
 )
 
 EXPERIMENTS = (

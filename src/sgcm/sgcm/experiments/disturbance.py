@@ -20,7 +20,7 @@ from ..core.episode import run_sgcm
 from ..core.follower_behaviour import FollowerSettings
 from ..core.task_config import Case, TaskConfig
 from .case_plots import case_grid
-from .inputs import CaseModels, task_and_cases
+from .inputs import CaseModels, planner_path, task_and_cases
 from .table1 import final_reward
 
 #: name -> (the follower, executions fail with p_fail)
@@ -38,7 +38,7 @@ ROUND_LIMIT = 40
 
 def run(request: ExperimentRequest) -> ExperimentResult:
     task, cases = task_and_cases(request)
-    data = run_disturbance(task, cases, request.log, request.seed)
+    data = run_disturbance(task, cases, request.log, request.seed, path=planner_path(request))
     run_dir = Path(request.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     report = _write_disturbance_table(data, run_dir / 'disturbance.md')
@@ -52,9 +52,9 @@ def run(request: ExperimentRequest) -> ExperimentResult:
 
 
 def run_disturbance(task: TaskConfig, cases: list[Case], log: Log = print, seed: int = 0,
-                    round_limit: int = ROUND_LIMIT) -> dict:
-    """The results (results.json's data): every case under every follower setting."""
-    games = CaseModels(task)   # each case on its own task (grid, goals)
+                    round_limit: int = ROUND_LIMIT, path: str = 'kernel') -> dict:
+    """The results (results.json's data): every case under every follower setting (``path``: the FSE path)."""
+    games = CaseModels(task, path)   # each case on its own task (grid, goals)
     results = {'round_limit': round_limit,
                'failure_probability': {'leader': task.leader.failure_probability,
                                        'follower': task.follower.failure_probability},

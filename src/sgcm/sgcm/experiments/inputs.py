@@ -1,7 +1,8 @@
 """What both SGCM experiments read: the task and its cases, as the options (``CASE_OPTIONS``) choose.
 
 A case may carry its own grid and goals (sgcm.core.task_config.case_task); :class:`CaseModels`
-gives each case the game of its own task, built once per distinct task.
+gives each case the game of its own task, built once per distinct task, and its FSE planner on the
+path ``--planner`` names (sgcm.core.fse_compiled.make_planner: kernel or reference).
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from collab_tools.experiments.api import ExperimentRequest
 from collab_tools.experiments.sweep import select
 
 from ..core.fse import FSEPlanner
+from ..core.fse_compiled import CompiledFSEPlanner, make_planner
 from ..core.rearrangement import RearrangementModel
 from ..core.task_config import Case, TaskConfig, load_cases, load_task, task_of
 
@@ -21,6 +23,11 @@ def task_file(request: ExperimentRequest) -> Path:
 
 def cases_file(request: ExperimentRequest) -> Path:
     return Path(request.option('cases', Path(request.config_dir) / 'sgcm' / 'cases.yaml'))
+
+
+def planner_path(request: ExperimentRequest) -> str:
+    """The leader's FSE path (--planner): kernel (default) or reference."""
+    return request.option('planner', 'kernel')
 
 
 def task_and_cases(request: ExperimentRequest) -> tuple[TaskConfig, list[Case]]:
@@ -34,10 +41,10 @@ def task_and_cases(request: ExperimentRequest) -> tuple[TaskConfig, list[Case]]:
 class CaseModels:
     """The game (and an FSE planner) of each case's own task; cases on the same task share them."""
 
-    def __init__(self, task: TaskConfig, **planner_options):
+    def __init__(self, task: TaskConfig, path: str = 'kernel', **planner_options):
         self.task = task
-        self.planner_options = planner_options
-        self._models: dict[int, tuple[RearrangementModel, FSEPlanner | None]] = {}
+        self.planner_options = {'path': path, **planner_options}
+        self._models: dict[int, tuple[RearrangementModel, CompiledFSEPlanner | FSEPlanner | None]] = {}
 
     def _entry(self, case: Case | None) -> tuple[TaskConfig, int]:
         task = self.task if case is None else task_of(case, self.task)
@@ -49,9 +56,9 @@ class CaseModels:
             self._models[key] = (RearrangementModel(task), None)
         return self._models[key][0]
 
-    def planner(self, case: Case | None = None) -> FSEPlanner:
+    def planner(self, case: Case | None = None) -> CompiledFSEPlanner | FSEPlanner:
         model = self.model(case)
         key = self._entry(case)[1]
         if self._models[key][1] is None:
-            self._models[key] = (model, FSEPlanner(model, **self.planner_options))
+            self._models[key] = (model, make_planner(model, **self.planner_options))
         return self._models[key][1]

@@ -28,7 +28,7 @@ from ..core.rearrangement import RearrangementModel
 from ..core.scenario_builder import build_scenario
 from ..core.task_config import Case, TaskConfig, task_of
 from .case_plots import case_grid
-from .inputs import CaseModels, task_and_cases, task_file
+from .inputs import CaseModels, planner_path, task_and_cases, task_file
 
 #: episodes(index, case) -> (SGCM episode, greedy episode)
 Episodes = Callable[[int, Case], tuple[EpisodeResult, EpisodeResult]]
@@ -56,7 +56,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
         episodes = sim_episodes(task, task_file(request).resolve(), cases, Path(request.run_dir),
                                 Path(request.config_dir), request.log, request.seed)
     else:
-        episodes = core_episodes(task, bool(request.option('failures', False)), request.seed)
+        episodes = core_episodes(task, bool(request.option('failures', False)), request.seed, planner_path(request))
     outcomes = play_cases(task, cases, episodes, request.log)
     data, acceptance = table1_results(outcomes, task, mode, cases)
     report = write_table1(outcomes, Path(request.run_dir))
@@ -68,9 +68,10 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                 + (f" ({', '.join(stuck)})" if stuck else ''))
 
 
-def core_episodes(task: TaskConfig, simulate_failures: bool = False, seed: int = 0) -> Episodes:
-    """Both strategies in the abstract game (of the case's own task), case ``index`` seeded with ``seed + index``."""
-    games = CaseModels(task)
+def core_episodes(task: TaskConfig, simulate_failures: bool = False, seed: int = 0, path: str = 'kernel') -> Episodes:
+    """Both strategies in the abstract game (of the case's own task), case ``index`` seeded with ``seed + index``;
+    ``path``: the leader's FSE path (kernel or reference)."""
+    games = CaseModels(task, path)
 
     def in_core(index, case):
         model = games.model(case)
