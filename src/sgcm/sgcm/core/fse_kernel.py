@@ -259,6 +259,13 @@ def _state_game(state, key, game, terminal, next_table, next_va, next_vb, work):
         key_a = key + lkey[a]
         best_b = -np.inf
         for col in range(n):
+            if col > 0 and c_held[col] <= 0 and (r == 0 or put != c_take[col]):
+                # His move finds no object after her success or failure: his empty action's cell, to the bit.
+                u_a, u_b = ua[r, 0], ub[r, 0]
+                ua[r, col], ub[r, col] = u_a, u_b
+                if u_a > c_best_a[col]:
+                    c_best_a[col] = u_a
+                continue
             src = c_src_total[col]
             blocked = False
             if col > 0:   # his move after hers (the EMPTY row changes nothing)
