@@ -13,7 +13,8 @@ camera info and robot sensors are sensor data (best effort), the label legend, c
 and ground truth latched, cmd_vel accepted from best-effort publishers.
 
 Parameters (core/settings.py): real_time_factor, publish_camera, compressed_rate, jpeg_quality,
-ground_truth_rate and status_rate change at run time (``ros2 param set``); the others are read-only.
+ground_truth_rate and status_rate change at run time (``ros2 param set``); the others are read-only
+(camera_renderer: core/renderer.py; the renderer in use is logged and in ``~/status``).
 Pacing and rate schedules are core/pacing.py's. The bridge is the clock source, so
 ``use_sim_time:=true`` is refused at start (exit 2).
 """
@@ -39,6 +40,7 @@ from .camera_adapter import CameraPublisher
 from .core.errors import ScenarioError
 from .core.frames import robot_transforms, static_transforms
 from .core.pacing import RealTimeMeter, SimTimeSchedule, TickPacer, steps_per_tick
+from .core.renderer import RendererError
 from .core.scenario import load_scenario
 from .core.scene import Scene
 from .core.settings import BRIDGE_SETTINGS
@@ -72,7 +74,10 @@ class PybulletBridge(Node):
             scenario = load_scenario(self.scenario_path)
         except ScenarioError as error:
             raise ConfigurationError(f'scenario {self.scenario_path}: {error}') from None
-        self.scene = Scene(scenario)
+        try:
+            self.scene = Scene(scenario, renderer=settings['camera_renderer'])
+        except RendererError as error:
+            raise ConfigurationError(f'parameter camera_renderer: {error}') from None
         self.paused = settings['start_paused']
         self.rejected_messages = 0
         self.adapters = []
@@ -99,7 +104,8 @@ class PybulletBridge(Node):
             f'physics dt {self.scene.physics_dt:.5f} s, control period '
             f'{self.steps_per_tick * self.scene.physics_dt:.5f} s ({self.steps_per_tick} steps), '
             f'real-time factor {self.real_time_factor or "as fast as possible"}'
-            f'{", paused" if self.paused else ""}')
+            f'{", paused" if self.paused else ""}; camera renderer {self.scene.renderer.name} '
+            f'({self.scene.renderer.reason})')
 
     # --- parameters -------------------------------------------------------------------
     @property
@@ -216,7 +222,9 @@ class PybulletBridge(Node):
                                target_real_time_factor=self.real_time_factor,
                                measured_real_time_factor=measured,
                                rejected_messages=self.rejected_messages,
-                               scenario_name=self.scene.scenario.name)
+                               scenario_name=self.scene.scenario.name,
+                               camera_frames=self.scene.frames_rendered,
+                               camera_renderer=self.scene.renderer.name)
         msg.header.stamp = to_time_msg(self.scene.sim_time)
         msg.header.frame_id = self.scene.scenario.world.frame_id
         self.status_pub.publish(msg)

@@ -1,9 +1,15 @@
-"""The bridge's top-view camera on ROS, raw and -- on demand -- compressed as image_transport does it.
+"""The bridge's top-view camera on ROS: streamed to subscribers, compressed as image_transport does it, or on demand.
+
+Nothing is rendered for nobody: a frame is rendered only when one of the image topics has a
+subscriber (at the camera rate) or somebody asks for one through the service.
 
 Topics under ``<camera>/`` (relative to the bridge's namespace):
 
-* ``image_raw`` (rgb8), ``labels`` (16UC1), ``camera_info``: sensor data (best effort), every
-  rendered frame (the scenario's ``camera.rate``) while ``publish_camera`` is true.
+* ``image_raw`` (rgb8), ``labels`` (16UC1): sensor data (best effort), a frame at the scenario's
+  ``camera.rate`` while ``publish_camera`` is true and any image topic (these two or the compressed
+  ones) has a subscriber.
+* ``camera_info``: sensor data, at the camera rate while ``publish_camera`` is true, subscribed to
+  or not (it costs no rendering; a bag records the camera model); a frame published carries its stamp.
 * ``image_raw/compressed`` (JPEG, ``rgb8; jpeg compressed bgr8``) and ``labels/compressed``
   (lossless PNG, ``16UC1; png compressed ``): sensor_msgs/CompressedImage with
   compressed_image_transport's topic names and format strings, so RViz, Foxglove and
@@ -12,8 +18,14 @@ Topics under ``<camera>/`` (relative to the bridge's namespace):
   frame); a frame passed by the throttle goes out on both, so image and labels share stamps.
 * ``pose`` and ``label_legend``: latched.
 
+Service ``<camera>/get_frame`` (bridge_interfaces/GetCameraFrame, default services QoS): renders
+the current state now and returns image, labels (when asked) and camera_info, stamped with the
+simulated time; for consumers that look rarely (the SGCM arms look once per round). It works while
+paused; with ``publish_camera`` false (the bridge's camera off, e.g. a camera driver stands in) it
+refuses (success false), and such a consumer falls back to the streamed topics.
+
 Parameters (core/settings.py CAMERA_SETTINGS, declared here, all dynamic): ``publish_camera``,
-``compressed_rate``, ``jpeg_quality``.
+``compressed_rate``, ``jpeg_quality``. The renderer (``camera_renderer``) is the scene's.
 """
 from __future__ import annotations
 
@@ -21,6 +33,7 @@ import sys
 
 import numpy as np
 from bridge_interfaces.msg import BodyLabel, LabelLegend
+from bridge_interfaces.srv import GetCameraFrame
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
@@ -80,6 +93,9 @@ class CameraPublisher:
         self.pose_pub = node.create_publisher(PoseStamped, f'{camera_ns}/pose', LATCHED)
         self.period = 1.0
         self.next_time = 0.0
+        self._scene: Scene | None = None
+        self._frame_pubs = (self.image_pub, self.labels_pub, self.image_compressed_pub, self.labels_compressed_pub)
+        self.frame_service = node.create_service(GetCameraFrame, f'{camera_ns}/get_frame', self._on_get_frame)
 
     # --- parameters ---------------------------------------------------------------------
     def _set_publish_camera(self, value: bool) -> None:
@@ -97,6 +113,7 @@ class CameraPublisher:
     # --- publishing ---------------------------------------------------------------------
     def on_scene_loaded(self, scene: Scene, stamp: Time) -> None:
         """A (new) scene: restart the schedule at its time 0 and publish the latched topics."""
+        self._scene = scene
         self.period = 1.0 / scene.scenario.camera.rate
         self.next_time = 0.0
         self.throttle.reset()
@@ -115,28 +132,59 @@ class CameraPublisher:
          pose.pose.orientation.z, pose.pose.orientation.w) = map(float, quaternion)
         self.pose_pub.publish(pose)
 
+    def wants_frames(self) -> bool:
+        """Whether anybody subscribes to an image topic (raw or compressed)."""
+        return any(pub.get_subscription_count() > 0 for pub in self._frame_pubs)
+
     def publish_due(self, scene: Scene, stamp: Time) -> None:
-        """Render and publish a frame if one is due at the scene's time."""
+        """Publish the camera if due at the scene's time: camera_info always, a frame for subscribers."""
         sim_time = scene.sim_time
         if not self.publish_camera or sim_time + EPSILON < self.next_time:
             return
         self.next_time = sim_time + self.period
-        frame = scene.render()
-        camera = scene.camera
         frame_id = optical_frame(scene.scenario.camera.frame_id)
+        info = self.camera_info(scene, stamp)
+        if not self.wants_frames():
+            self.info_pub.publish(info)
+            return
+        frame = scene.render()
         self.image_pub.publish(image_msg(frame.rgb, 'rgb8', stamp, frame_id))
         self.labels_pub.publish(image_msg(frame.labels, '16UC1', stamp, frame_id))
+        self.info_pub.publish(info)
+        self._publish_compressed(frame.rgb, frame.labels, sim_time, stamp, frame_id)
+
+    @staticmethod
+    def camera_info(scene: Scene, stamp: Time) -> CameraInfo:
+        camera = scene.camera
         info = CameraInfo()
         info.header.stamp = stamp
-        info.header.frame_id = frame_id
+        info.header.frame_id = optical_frame(scene.scenario.camera.frame_id)
         info.width, info.height = camera.width, camera.height
         info.distortion_model = 'plumb_bob'
         info.d = [0.0] * 5
         info.k = [float(v) for v in camera.intrinsics().flatten()]
         info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
         info.p = [float(v) for v in camera.projection().flatten()]
-        self.info_pub.publish(info)
-        self._publish_compressed(frame.rgb, frame.labels, sim_time, stamp, frame_id)
+        return info
+
+    def _on_get_frame(self, request: GetCameraFrame.Request, response: GetCameraFrame.Response):
+        scene = self._scene
+        if scene is None or not self.publish_camera:
+            response.success = False
+            response.message = 'no scene loaded yet' if scene is None else 'publish_camera is false: the camera is off'
+            return response
+        seconds = scene.sim_time
+        nanoseconds = int(round(seconds * 1e9))
+        stamp = Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+        frame_id = optical_frame(scene.scenario.camera.frame_id)
+        frame = scene.render()
+        response.image = image_msg(frame.rgb, 'rgb8', stamp, frame_id)
+        if request.with_labels:
+            response.labels = image_msg(frame.labels, '16UC1', stamp, frame_id)
+        response.camera_info = self.camera_info(scene, stamp)
+        response.success = True
+        response.message = f'frame at {seconds:.3f} s ({scene.renderer.name} renderer)'
+        return response
 
     def _publish_compressed(self, rgb: np.ndarray, labels: np.ndarray, sim_time: float, stamp: Time,
                             frame_id: str) -> None:

@@ -26,6 +26,7 @@ simulator, so sgcm, role_engine and the coalition agents read scenarios without 
   ``sensors`` (sim)        fiducial, laser, GPS and bumper readings (configured by ``sensor_config``)
 **Camera**
   ``camera`` (sim)         the top-view pinhole camera: intrinsics, pixel <-> world, rendering
+  ``renderer``             which renderer draws it: pybullet's EGL plugin where it loads, else TinyRenderer
   ``placement``            the pixel test: where an object fits in a region of the label image
 **Arm** (``arm/``: its ``__init__`` maps the modules; models, definition, task, requests, state
   machine and outcome are pure, kinematics, segments, planning, recovery, gripper, simulation sim)
@@ -58,6 +59,7 @@ _EXPORTS = {
     'ScenarioError': '.errors', 'SectionContext': '.sections', 'register_section': '.scenario',
     'registered_sections': '.scenario', 'unregister_section': '.scenario',
     'CameraFrame': '.scene', 'Scene': '.scene', 'TopViewCamera': '.camera',
+    'RendererChoice': '.renderer', 'choose_renderer': '.renderer',
     'find_free_pixel': '.placement', 'find_place_position': '.placement', 'region_to_pixels': '.placement',
 }
 

@@ -76,7 +76,10 @@ class TopViewCamera:
 
     def render(self, client: int,
                label_of_body: Callable[[int], int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Render (rgb (H, W, 3) uint8, labels (H, W) uint16) with the tiny CPU renderer.
+        """Render (rgb (H, W, 3) uint8, labels (H, W) uint16) with the client's renderer.
+
+        TinyRenderer unless the client loaded the EGL plugin (core/renderer.py), which then draws
+        every getCameraImage whatever its ``renderer`` argument.
 
         ``label_of_body`` maps a pybullet body unique id to its label, either as a
         function or as a lookup array indexed by id; unknown ids map to 0.

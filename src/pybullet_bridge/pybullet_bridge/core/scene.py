@@ -2,7 +2,8 @@
 
 The scene turns each entity definition of the scenario into its simulated counterpart
 (:data:`SIMULATED_KINDS`; a section that returns :class:`SceneEntity` objects itself gets a
-copy of each), spawns them, labels their bodies for segmentation and steps the physics.
+copy of each), spawns them, labels their bodies for segmentation and steps the physics. The camera's renderer
+(:mod:`.renderer`: the EGL plugin or TinyRenderer) is chosen once per scene, when it connects.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from .mobile_robot import MobileRobot
 from .mobile_robot_body import SimulatedMobileRobot
 from .obstacles import WallSet
 from .passive_bodies import PASSIVE_BODIES
+from .renderer import TINY, RendererChoice, choose_renderer
 from .scenario import Scenario
 
 __all__ = ['BACKGROUND_LABEL', 'SIMULATED_KINDS', 'BodyStateData', 'CameraFrame', 'Scene', 'SceneEntity',
@@ -62,17 +64,26 @@ class CameraFrame:
 class Scene:
     """A running simulation of one scenario in its own pybullet DIRECT client."""
 
-    def __init__(self, scenario: Scenario):
+    def __init__(self, scenario: Scenario, renderer: str = TINY):
+        """renderer: core.renderer's tiny (the reference), egl or auto."""
         # Never the default client: several scenes (e.g. parallel tests) must not share state.
         self.client = p.connect(p.DIRECT)
         if self.client < 0:
             raise RuntimeError('could not start a pybullet DIRECT client')
+        try:  # the plugin must be there before the first body
+            self.renderer: RendererChoice = choose_renderer(renderer, self._load_plugin)
+        except Exception:
+            self.close()
+            raise
         self.scenario = scenario
         self.entities: list[SceneEntity] = []
         self._label_of_body = np.zeros(0, dtype=np.uint16)
         self._build(scenario, self._fresh_entities(scenario))
 
     # -- construction -------------------------------------------------------
+
+    def _load_plugin(self, path: str) -> int:
+        return p.loadPlugin(path, '_eglRendererPlugin', physicsClientId=self.client)
 
     @staticmethod
     def _fresh_entities(scenario: Scenario) -> list[SceneEntity]:
@@ -92,6 +103,7 @@ class Scene:
         self.scenario = scenario
         self.physics_dt = world.physics_dt
         self.step_count = 0
+        self.frames_rendered = 0
         self.camera = TopViewCamera(scenario.camera)
         self.entities = entities
         self._by_name = {entity.name: entity for entity in entities}
@@ -195,5 +207,7 @@ class Scene:
                 entity.after_step(self.client, dt, end)
 
     def render(self) -> CameraFrame:
+        """The camera's frame of the current state (counted in ``frames_rendered``)."""
+        self.frames_rendered += 1
         rgb, labels = self.camera.render(self.client, self._label_of_body)
         return CameraFrame(sim_time=self.sim_time, rgb=rgb, labels=labels)

@@ -14,6 +14,9 @@ MAX_REAL_TIME_FACTOR = 1000.0
 #: compressed_image_transport's default jpeg_quality.
 DEFAULT_JPEG_QUALITY = 95
 MAX_COMPRESSED_RATE = 1000.0
+#: The camera's renderers (core/renderer.py): the EGL plugin, TinyRenderer, or EGL where it loads.
+TINY, EGL, AUTO = 'tiny', 'egl', 'auto'
+RENDERERS = (AUTO, EGL, TINY)
 
 #: Parameters of the simulation loop (bridge_node.py).
 BRIDGE_SETTINGS = SettingsSchema(
@@ -27,11 +30,15 @@ BRIDGE_SETTINGS = SettingsSchema(
     Setting('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
             low=0.0, high=MAX_RATE, low_open=True, dynamic=True),
     Setting('start_paused', False, 'start paused; advance with ~/step or ~/pause false'),
+    Setting('camera_renderer', AUTO, "the top-view camera's renderer: egl (pybullet's eglRenderer plugin, "
+            'or exit 2), tiny (TinyRenderer, the reference) or auto (egl where it loads, else tiny)',
+            choices=RENDERERS),
 )
 
 #: Parameters of the top-view camera's publishers (camera_adapter.py), all dynamic.
 CAMERA_SETTINGS = SettingsSchema(
-    Setting('publish_camera', True, 'render and publish the top-view camera', dynamic=True),
+    Setting('publish_camera', True, 'the top-view camera on: streamed to subscribers (rendered only for them) '
+            'and served on <camera>/get_frame', dynamic=True),
     Setting('compressed_rate', 0.0, 'Hz of simulated time for <camera>/image_raw/compressed '
             'and <camera>/labels/compressed (at most the camera rate); 0 = every frame',
             low=0.0, high=MAX_COMPRESSED_RATE, dynamic=True),
