@@ -169,3 +169,19 @@ def test_cooperative_means_equal_weights_crosswise():
     assert is_cooperative(relay_line(utility={'leader': {'own_cost': 2.0, 'other_cost': 0.5},
                                               'follower': {'own_cost': 0.5, 'other_cost': 2.0}}))
     assert not is_cooperative(selfish_task())
+
+
+def test_states_the_kernel_cannot_settle_go_to_the_solver(state_of):
+    # Forced through the cooperative shortcut, a general-sum game still equals the reference: states a pure
+    # commitment settles get the solver's choice, the others (mixed commitments) are handed to the solver.
+    model = RearrangementModel(selfish_task())
+    state = state_of(model, {'red': [[0, 1]], 'green': [[1, 0]]})
+    planner = CompiledFSEPlanner(model, horizon=2)
+    planner.cooperative = True
+    calls = []
+    solve = planner.solve_stage
+    planner.solve_stage = lambda ua, ub: calls.append(ua.shape) or solve(ua, ub)
+    kernel = planner.plan(state)
+    reference = FSEPlanner(model, horizon=2).plan(state)
+    assert 0 < len(calls) < kernel.stage_games
+    assert_same_plan(kernel, reference)
