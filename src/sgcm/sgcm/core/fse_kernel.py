@@ -11,6 +11,8 @@ The same computation as :class:`.fse.FSEPlanner` (the reference), over integer s
   stage utilities u^i(s, a^A, a^B) and the transitions (successor values looked up by key in
   S_{t+1}'s table, or r(s') from per-action deltas at t = T-1), U^i = u^i + gamma E[v^i_{t+1}], and
   the stage game's equilibrium read off the matrices by :func:`_solve_pure` (the cooperative case).
+  A follower move that finds no object whether her move succeeds or not (a "relay" candidate she
+  does not serve) has exactly his empty action's numbers: that cell is copied, not recomputed.
 - :func:`level_games`: the matrices U^A, U^B of a slice of a stage, for the stage-game solvers of
   :mod:`.stage_game` (general-sum games, and any state :func:`_solve_pure` cannot settle).
 
