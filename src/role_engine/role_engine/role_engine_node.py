@@ -51,6 +51,7 @@ from collab_tools.port_logging import PortLogger
 from collab_tools.top_camera import TopCamera
 
 from .core.engine import CameraView, RoleEngine as EngineBehaviour, RoundOutcome
+from .core import gp_compiled
 from .core.errors import RoleEngineError
 from .core.grid import GridFrame
 from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tuning_schema, tuned
@@ -63,6 +64,8 @@ from .role_messages import occupancy_grid_msg, process_role_msg, shared_role, te
 class RoleEngine(Node):
     def __init__(self):
         super().__init__('role_engine')
+        # GP kernels loaded (or compiled) now, not in the first plan.
+        self.get_logger().info(f'compiled GP kernels ready in {gp_compiled.warm_up():.2f} s')
         params = NodeParameters(self)
         self.names = TeamNode(self, params)
         settings = params.declare_schema(ENGINE_SETTINGS)

@@ -45,6 +45,7 @@ from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
 from collab_tools.port_logging import PortLogger
 
+from .core import gp_compiled
 from .core.errors import RoleEngineError
 from .core.node_settings import PLAYER_SETTINGS, player_settings_file, player_tuning_schema, team_member, tuned
 from .core.player import PublishedRole, RolePlayer as PlayerBehaviour, RoundAssignment
@@ -58,6 +59,8 @@ POSE_TIMEOUT = 1.0
 class RolePlayer(Node):
     def __init__(self):
         super().__init__('role_player')
+        # GP kernels loaded (or compiled) now, not in the first plan.
+        self.get_logger().info(f'compiled GP kernels ready in {gp_compiled.warm_up():.2f} s')
         self.params = NodeParameters(self)
         self.names = RobotNode(self, self.params)
         self.task = player_settings_file(self.params.declare_schema(PLAYER_SETTINGS)['settings_file'])
