@@ -12,6 +12,9 @@ Names: everything but /clock, /tf and /tf_static is relative to the node's names
 camera info and robot sensors are sensor data (best effort), the label legend, camera pose
 and ground truth latched, cmd_vel accepted from best-effort publishers.
 
+/clock goes out every control tick, or at ``clock_rate`` (simulated Hz) when set: each message
+costs every node on simulated time a wake-up, the largest ROS cost of a fast run.
+
 Parameters (core/settings.py): real_time_factor, publish_camera, compressed_rate, jpeg_quality,
 ground_truth_rate and status_rate change at run time (``ros2 param set``); the others are read-only
 (camera_renderer: core/renderer.py; the renderer in use is logged and in ``~/status``).
@@ -69,6 +72,8 @@ class PybulletBridge(Node):
         self.status_rate = settings['status_rate']
         self.pacer = TickPacer(self.control_period, settings['real_time_factor'])
         self.ground_truth = SimTimeSchedule(settings['ground_truth_rate'])
+        # clock_rate 0: /clock every tick; else at that rate (and after every ~/step).
+        self.clock = SimTimeSchedule(settings['clock_rate']) if settings['clock_rate'] > 0 else None
 
         try:
             scenario = load_scenario(self.scenario_path)
@@ -152,6 +157,8 @@ class PybulletBridge(Node):
         self.adapters = create_adapters(self, self.scene.entities, self.reject)
         self.steps_per_tick = steps_per_tick(self.control_period, self.scene.physics_dt)
         self.ground_truth.restart()
+        if self.clock is not None:
+            self.clock.restart()
         self.pacer.reanchor()
         self.status_meter = RealTimeMeter(time.monotonic(), self.scene.sim_time)
         self._publish_latched()
@@ -193,7 +200,8 @@ class PybulletBridge(Node):
     def _publish_due(self) -> None:
         sim_time = self.scene.sim_time
         stamp = to_time_msg(sim_time)
-        self.clock_pub.publish(ClockMsg(clock=stamp))
+        if self.clock is None or self.clock.take_if_due(sim_time):
+            self.clock_pub.publish(ClockMsg(clock=stamp))
         if self.ground_truth.take_if_due(sim_time):
             self._publish_ground_truth(stamp)
         self.camera.publish_due(self.scene, stamp)
@@ -264,6 +272,8 @@ class PybulletBridge(Node):
             response.message = f'steps: must be in [1, {MAX_STEPS_PER_REQUEST}] (got {request.steps})'
         else:
             self.advance(request.steps)
+            if self.clock is not None:  # the time stepped to, whatever the clock rate
+                self.clock_pub.publish(ClockMsg(clock=to_time_msg(self.scene.sim_time)))
             response.success = True
             response.message = f'stepped {request.steps} physics steps'
         response.sim_time = to_time_msg(self.scene.sim_time)

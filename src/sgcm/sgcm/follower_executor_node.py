@@ -49,7 +49,8 @@ class FollowerExecutor(Node):
         self.model = RearrangementModel(self.task)
         self.rounds = FollowerRounds(Follower(self.model, settings.follower, seed=settings.seed), self)
         self._set_settle_time(settings.settle_time)
-        self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport)
+        self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
+                                  params=params)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.report_pub = self.create_publisher(FollowerReport, self.names.team(FOLLOWER_REPORT), RELIABLE)
         self.create_subscription(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)
@@ -90,8 +91,9 @@ class FollowerExecutor(Node):
     def _tick(self) -> None:
         if self.rounds.phase is not FollowerPhase.SETTLING:
             return
-        stamp = self.camera.frame_time()
-        if stamp is None or stamp < self.rounds.pending.stamp + self.settle or not self.arm.server_is_ready():
+        settled = self.rounds.pending.stamp + self.settle
+        stamp = self.camera.frame_time(not_before=settled)   # on demand: asks for a frame once settled
+        if stamp is None or stamp < settled or not self.arm.server_is_ready():
             return
         try:
             estimate = self.camera.estimate()

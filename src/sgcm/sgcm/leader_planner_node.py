@@ -1,7 +1,8 @@
 """leader_planner: the SGCM leader arm (Algorithm 1 on the simulated table).
 
 Runs in its arm's namespace (``ros2 run sgcm leader_planner --ros-args -r __ns:=/leader_arm``).
-Each round: estimate the state from the top-view camera (labels + RGB; no ground truth), then
+Each round: estimate the state from the top-view camera (labels + RGB; no ground truth; one frame
+asked of the camera per round, see sgcm.camera_input), then
 the leader's round of the core (sgcm.core.leader_round: goal, stuck, round limit, else the
 feedback Stackelberg equilibrium over the horizon, or the greedy baseline), execute her own
 move through the arm's ``pick_and_place`` action, publish the Guidance on
@@ -32,7 +33,7 @@ from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from .camera_input import CameraInput
-from .core.fse import FSEPlanner
+from .core.fse_compiled import make_planner
 from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
 from .core.leader_rounds import LeaderPhase, LeaderRounds
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
@@ -60,7 +61,8 @@ class LeaderPlanner(Node):
         self._set_settle_time(settings.settle_time)
         self.rounds = LeaderRounds(self.leader, self)
 
-        self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport)
+        self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
+                                  params=params)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
         self.create_subscription(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
@@ -72,13 +74,14 @@ class LeaderPlanner(Node):
         self.timer = self.create_timer(0.05, self._tick)
         self.get_logger().info(
             f'arm {self.names.robot}, strategy {self.strategy}, horizon T={self.leader.planner.horizon}, '
-            f'solver {settings.solver}, {self.task.rows}x{self.task.cols} grid, '
+            f'planner {settings.planner}, solver {settings.solver}, {self.task.rows}x{self.task.cols} grid, '
             f'colours {", ".join(self.task.colours)}')
 
     # --- dynamic parameters ----------------------------------------------------------
     def _set_horizon(self, value: int) -> None:
         # The next round plans with it; the planner holds no state between rounds.
-        self.leader.planner = FSEPlanner(self.model, horizon=value or self.task.horizon, solver=self.settings.solver)
+        self.leader.planner = make_planner(self.model, value or self.task.horizon, self.settings.solver,
+                                           self.settings.planner)   # kernel: warmed up (numba) when built
 
     def _set_follower_timeout(self, value: float) -> None:
         self.follower_timeout = Duration(seconds=float(value))
@@ -102,8 +105,9 @@ class LeaderPlanner(Node):
             self.round_ended = self.get_clock().now()
 
     def _observe(self) -> None:
-        stamp = self.camera.frame_time()
-        if stamp is None or (self.round_ended is not None and stamp < self.round_ended + self.settle):
+        settled = None if self.round_ended is None else self.round_ended + self.settle
+        stamp = self.camera.frame_time(not_before=settled)   # on demand: asks for a frame once settled
+        if stamp is None or (settled is not None and stamp < settled):
             return
         if not self.arm.server_is_ready():
             return

@@ -14,7 +14,7 @@ GOOD = {'scenario': '/tmp/scenario.yaml'}
 def test_defaults_with_a_scenario_are_the_documented_start_values():
     values = NODE_SETTINGS.validate(GOOD)
     assert values == {'scenario': '/tmp/scenario.yaml', 'real_time_factor': 1.0, 'control_period': 0.01,
-                      'ground_truth_rate': 20.0, 'status_rate': 1.0, 'start_paused': False,
+                      'clock_rate': 0.0, 'ground_truth_rate': 20.0, 'status_rate': 1.0, 'start_paused': False,
                       'camera_renderer': 'auto', 'publish_camera': True, 'compressed_rate': 0.0, 'jpeg_quality': 95}
 
 
@@ -33,6 +33,7 @@ def test_which_parameters_change_at_run_time():
     ({'status_rate': float('nan')}, ['parameter status_rate', 'must be finite']),
     ({'start_paused': 'yes'}, ['parameter start_paused', 'true or false']),
     ({'scenario': ''}, ['parameter scenario: required']),
+    ({'clock_rate': -1.0}, ['parameter clock_rate', '[0, 1000]']),
     ({'camera_renderer': 'opengl'}, ['parameter camera_renderer', 'auto, egl, tiny']),
 ])
 def test_bad_bridge_parameter_names_the_parameter(values, expected):

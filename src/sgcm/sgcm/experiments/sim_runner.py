@@ -31,9 +31,11 @@ REPORT = join('/', FOLLOWER_REPORT)
 
 def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, config_dir: Path,
              strategy: str = 'sgcm', follower: FollowerSettings | None = None, seed: int = 0,
-             execution_failures: bool = False, log=print, experiment: Path | None = None) -> SessionRunResult:
+             execution_failures: bool = False, log=print, experiment: Path | None = None,
+             parameters: dict[str, dict] | None = None) -> SessionRunResult:
     """experiment: another experiment file than config/experiments/sgcm_case.yaml (e.g. the same
-    nodes split over hosts, with its own discovery); its node names must be the same."""
+    nodes split over hosts, with its own discovery); its node names must be the same.
+    parameters: more node parameters by session label (e.g. ``{'pybullet_bridge': {...}}``)."""
     follower = follower or FollowerSettings('zero_trust' if strategy == 'greedy' else 'obedient')
     scenario = build_scenario(task, case, seed=seed, execution_failures=execution_failures)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -52,6 +54,8 @@ def run_case(task: TaskConfig, task_file: Path, case: Case, run_dir: Path, confi
                                            'deviation_rounds': list(follower.deviation_rounds) or [0],
                                            'seed': seed + 1},
     }
+    for label, values in (parameters or {}).items():
+        overrides[label] = {**overrides.get(label, {}), **values}
     return run_experiment(experiment or config_dir / 'experiments' / 'sgcm_case.yaml', config_dir,
                           run_dir=run_dir, overrides=overrides, log=log)
 
