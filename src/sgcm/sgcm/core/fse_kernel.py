@@ -172,20 +172,6 @@ def _stage(state, game, work):
     return m, n
 
 
-@njit(cache=True, inline='always')
-def _pair(r, col, rows, cols, cap):
-    """(blocked, his source cell's total) for column ``col`` after row ``r``'s move succeeded."""
-    held, src, dst = cols[C_HELD, col], cols[C_SOURCE_TOTAL, col], cols[C_TARGET_TOTAL, col]
-    if col == 0:
-        return False, src
-    if r > 0:
-        tb, sb, db = cols[C_TAKE, col], cols[C_SOURCE, col], cols[C_TARGET, col]
-        held += (1 if rows[R_PUT, r] == tb else 0) - (1 if rows[R_TAKE, r] == tb else 0)
-        src += (1 if rows[R_TARGET, r] == sb else 0) - (1 if rows[R_SOURCE, r] == sb else 0)
-        dst += (1 if rows[R_TARGET, r] == db else 0) - (1 if rows[R_SOURCE, r] == db else 0)
-    return held <= 0 or dst >= cap, src
-
-
 @njit(cache=True)
 def _find(next_table, key):
     row = table_find(next_table, key)
@@ -436,19 +422,33 @@ def expand_level(states, keys, game, materialise):
             table = _empty_table(capacity)
             for row in range(size):
                 _table_insert(table, new_keys[row], row)
-        # Outcomes: (0, 0) once, (a^A, 0) per row, (0, a^B) per column, (a^A, a^B) per pair; a blocked
-        # follower move is the empty action, and a pair that repeats a state hashed before is skipped.
+        # Outcomes: (0, 0) once (row and column -1), (a^A, 0) per row, (0, a^B) per column, (a^A, a^B)
+        # per pair; a blocked follower move is his empty action, so its pair is skipped (the state of
+        # (a^A, 0)), as are the empty actions' row 0 and column 0 (the states of row and column -1).
+        c_act, c_take, c_held = cols[C_ACT], cols[C_TAKE], cols[C_HELD]
+        c_target, c_dst_total, c_blocked = cols[C_TARGET], cols[C_TARGET_TOTAL], cols[C_BLOCKED]
         for r in range(-1, m):
-            a = 0 if r < 0 else rows[R_ACT, r]
+            if r == 0:
+                continue
+            a, take, put, source, target = 0, -1, -1, -1, -1
+            if r > 0:
+                a, take, put, source, target = rows[R_ACT, r], rows[R_TAKE, r], rows[R_PUT, r], \
+                    rows[R_SOURCE, r], rows[R_TARGET, r]
             for col in range(-1, n):
-                if col < 0:
-                    b = 0
-                elif r < 0:
-                    b = 0 if cols[C_BLOCKED, col] != 0 else cols[C_ACT, col]
-                else:
-                    b = 0 if _pair(r, col, rows, cols, cap)[0] else cols[C_ACT, col]
-                if b == 0 and col >= 0 or a == 0 and r >= 0:
-                    continue   # the same state as (a^A, 0) or as (0, a^B)
+                b = 0
+                if col == 0:
+                    continue
+                if col > 0:
+                    if r < 0:
+                        if c_blocked[col] != 0:
+                            continue
+                    else:   # his move after hers: the object must be there and his target not full
+                        tb, db = c_take[col], c_target[col]
+                        if c_held[col] + (1 if put == tb else 0) - (1 if take == tb else 0) <= 0:
+                            continue
+                        if c_dst_total[col] + (1 if target == db else 0) - (1 if source == db else 0) >= cap:
+                            continue
+                    b = c_act[col]
                 successor = key + lkey[a] + fkey[b]
                 if _table_insert(table, successor, size) != NO_ROW:
                     continue
