@@ -13,6 +13,11 @@ The last stage never materialises S_T: the reward is linear in the state (plus a
 bonus on the misplaced-object count, also linear), so r of every outcome follows from
 r(s) and per-action deltas. Earlier stages look successors up by their linear state
 keys (see rearrangement.py).
+
+This is the reference path (numpy per state, a stage-game solver per state). The leader plans on
+the compiled kernel by default (:mod:`.fse_compiled`, same values and actions); this planner stays
+selectable (``make_planner(..., path='reference')``, the leader's ``planner`` setting) and is
+what the kernel is checked against (``scripts/bench sgcm``, test_sgcm_kernel*.py).
 """
 from __future__ import annotations
 
