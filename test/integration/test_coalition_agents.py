@@ -177,20 +177,29 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     assert first.state == AgentStatus.COMMITTED, first.detail
     assert len(first.members) == 2 and first.members[0] == NAV_LEADER
     helper = first.members[1]
+    first_id = first.coalition_id
     spare = SPARE_B if helper == SPARE_A else SPARE_A
     # The helper streams what it committed to: its GPS pose F_G(helper) and its fiducial's view of
     # the leader F_R(pusher_r2, helper); composed (Table I), they put the leader where it truly is.
     def streamed(label, referents):
-        # The inbox carries batches (AgentMessageBatch): one per sender and processing step.
-        def wanted(m):
-            return (m.kind == 8 and m.sender == helper and m.receiver == NAV_LEADER
-                    and m.instance.type == label and list(m.instance.referents) == referents)
-        batch = session.wait_for_message(
-            f'/coalition/channel/{NAV_LEADER}', 'coalition_interfaces/msg/AgentMessageBatch', timeout=20.0,
-            predicate=lambda b: b.sender == helper and any(wanted(m) for m in b.messages))
-        msg = next(m for m in batch.messages if wanted(m))
-        assert msg.coalition_id == first.coalition_id
-        return {entry.name: entry.value for entry in msg.values}
+        # The batch topic carries every agent's batches, one per sender, recipient and processing
+        # step, their messages as columns (message_rows of batch_columns; kind 8 = INFORMATION).
+        def values(b):
+            if b.sender != helper or b.recipient != NAV_LEADER:
+                return None
+            info = value = 0
+            for index, kind in enumerate(b.kinds):
+                count, n_values = b.information_counts[index], b.value_counts[index]
+                first = sum(b.referent_counts[:info])
+                entry = (b.information_types[info], list(b.referents[first:first + b.referent_counts[info]])) \
+                    if count else None
+                if kind == 8 and entry == (label, referents) and b.coalition_ids[index] == first_id:
+                    return dict(zip(b.value_names[value:value + n_values], b.values[value:value + n_values]))
+                info, value = info + count, value + n_values
+            return None
+        batch = session.wait_for_message('/coalition/batches', 'coalition_interfaces/msg/AgentMessageBatch',
+                                         timeout=20.0, predicate=lambda b: values(b) is not None)
+        return values(batch)
 
     pose, seen = streamed('F_G', [helper]), streamed('F_R', [NAV_LEADER, helper])
     c, s_ = math.cos(pose['yaw']), math.sin(pose['yaw'])
@@ -212,20 +221,22 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
     while 'message.values.x: must be a finite number' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed information message was not reported'
         time.sleep(0.1)
-    # The same inside a batch on the leader's inbox: that message is dropped with a message naming
-    # it, and a batch that claims another recipient is dropped whole; the leader keeps going.
-    inbox = session.observer.node.create_publisher(AgentMessageBatch, f'/coalition/channel/{NAV_LEADER}', 10)
-    while inbox.get_subscription_count() < 1:
-        assert time.monotonic() < deadline + 10.0, 'the leader is not on its inbox'
+    # The same inside a batch on the batch topic: that message is dropped with a message naming
+    # it, and a batch whose columns disagree is dropped whole; the leader keeps going.
+    batches = session.observer.node.create_publisher(AgentMessageBatch, '/coalition/batches', 10)
+    while batches.get_subscription_count() < 2:
+        assert time.monotonic() < deadline + 10.0, 'the agents are not on /coalition/batches'
         time.sleep(0.05)
-    bad_value = AgentMessage(message_id=8, sender=helper, receiver=NAV_LEADER, kind=8,
-                             instance=Information(type='F_G', referents=[helper]), coalition_id=first.coalition_id,
-                             values=[NamedValue(name='x', value=math.inf), NamedValue(name='y', value=0.0)])
-    inbox.publish(AgentMessageBatch(sender=helper, recipient=NAV_LEADER, sequence=10 ** 9, messages=[bad_value]))
-    inbox.publish(AgentMessageBatch(sender=helper, recipient=spare, sequence=10 ** 9 + 1, messages=[bad_value]))
+    bad_value = dict(sender=helper, recipient=NAV_LEADER, sequence=10 ** 9, kinds=[8], message_ids=[8],
+                     conversation_ids=[0], in_reply_to=[0], costs=[0.0], hold_seconds=[0.0],
+                     coalition_ids=[first.coalition_id], reasons=[''], information_counts=[1], chain_lengths=[0],
+                     member_counts=[0], value_counts=[2], information_types=['F_G'], referent_counts=[1],
+                     referents=[helper], value_names=['x', 'y'], values=[math.inf, 0.0])
+    batches.publish(AgentMessageBatch(**bad_value))
+    batches.publish(AgentMessageBatch(**{**bad_value, 'sequence': 10 ** 9 + 1, 'costs': []}))
     deadline = time.monotonic() + 10.0
     while not all(text in leader_log.read_text() for text in (
-            'batch.messages[0].values.x: must be a finite number', f"batch.recipient: this inbox is {NAV_LEADER}'s")):
+            'batch.messages[0].values.x: must be a finite number', 'batch.costs: 0 entries for 1 messages')):
         assert time.monotonic() < deadline, 'the malformed batch contents were not reported'
         time.sleep(0.1)
     # The helper stops: its stream goes stale, the leader releases the coalition and re-forms it

@@ -71,7 +71,8 @@ class SimWindow:
 
 
 def information_from(batches, sender):
-    return sum(1 for b in batches if b.sender == sender for m in b.messages if m.kind == 8)
+    # The batch topic carries every agent's batches, messages as columns (kinds: 8 = INFORMATION).
+    return sum(1 for b in batches if b.sender == sender for kind in b.kinds if kind == 8)
 
 
 def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
@@ -132,7 +133,7 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
     assert slow and max(c.linear.x for c in slow) <= 0.03 + 1e-9
 
     # stream_rate of the helper: its INFORMATION messages to the leader.
-    inbox = SimWindow(node, AgentMessageBatch, f'/coalition/channel/{LEADER}', CHANNEL_QOS)
+    inbox = SimWindow(node, AgentMessageBatch, '/coalition/batches', CHANNEL_QOS)
     before = information_from(inbox.collect(3.0), HELPER)
     assert set_one(session, f'/{HELPER}/schema_agent', 'stream_rate', 1.0).successful
     inbox.collect(1.2)

@@ -5,9 +5,11 @@ Why: the Fig. 9 column runs up to 20 agents. Twenty rclpy processes on this 2-co
 scheduling between them -- start-up alone takes tens of seconds and their contention, not the
 algorithm, would dominate the measured search time. As in an rclcpp component container, every
 agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its own
-name, parameters, publishers and subscriptions on the real topics (``<team>/coalition/channel/<robot>``,
-``/<robot>/coalition``, the bridge's sensor topics and services); only the process, the DDS
-participant and the executor are shared. One executor runs every node's callbacks; each node's
+name, parameters, publishers and subscriptions on the real topics (``/<robot>/coalition``, the
+bridge's sensor topics and services); only the process, the DDS participant, the executor and the
+channel's endpoints are shared: ONE :class:`~.transport.channel_hub.ChannelHub` (one publisher and
+subscription of ``<team>/coalition/batches``, one timer) serves every hosted agent -- not one
+subscription and timer per agent (``executor: multi``: each agent has its own). One executor runs every node's callbacks; each node's
 callbacks stay mutually exclusive (its default callback group), so an agent sees its events one
 at a time, as in its own process. ``executor``: ``single`` (default) -- rclpy's single-threaded
 executor: under the GIL threads add no parallelism, and the multi-threaded executor's per-callback
@@ -16,8 +18,8 @@ overhead (futures, thread hand-over) made the agents fall behind a burst of chan
 
 With the single-threaded executor the agents' deferred work -- their reasoning slices and the
 channel messages waiting for them -- runs through ONE :class:`~.core.cooperative_work.CooperativeWork`
-queue, ``work_slice`` (wall s) per executor cycle, round robin: every cycle still serves all
-inboxes, timers and sensor reports, so a COMMIT_REQUEST or an ACK waits for at most one short
+queue, ``work_slice`` (wall s) per executor cycle, round robin: every cycle still serves the
+channel, timers and sensor reports, so a COMMIT_REQUEST or an ACK waits for at most one short
 cycle instead of every agent's reasoning.
 
 Each hosted agent is a :class:`~.schema_agent_node.SchemaAgentNode` named ``schema_agent`` in
@@ -35,14 +37,12 @@ Parameters (all read-only: they shape the process at start-up):
 * ``agent_parameters`` (path, optional): one more ROS 2 parameter file for the hosted nodes only,
   after the host's own parameter files (a later file's value wins).
 * ``team_namespace`` (default '': the host's namespace): where the channel lives.
-* ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel`` and the hosted
-  robots' inboxes ``<team>/coalition/channel/<robot>`` and wait up to this long for a subscriber
-  of each (the bag recorder) before creating the agents, so the whole search is recorded.
+* ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel`` and ``.../batches``, wait
+  up to this long for the recorder to subscribe to both before creating the agents.
 * ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
   per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
   of equal capabilities reuse each other's generated spaces instead of generating them again.
-* ``executor`` (``single`` | ``multi``, default single) and ``work_slice`` (wall s, default 0.01):
-  see above.
+* ``executor`` (``single`` | ``multi``, default single), ``work_slice`` (wall s, 0.01): see above.
 * ``linger`` (s, default 1.0): once every hosted agent with ``exit_when_done`` is done, keep
   spinning this long (wall clock) so the last messages reach the recorder, then exit 0. Without
   any such agent the host spins until shutdown.
@@ -68,7 +68,8 @@ from collab_tools.core.settings import Setting, SettingsSchema
 from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
 
-from .transport.agent_channel import CHANNEL_TOPIC, inbox_topic
+from .transport.agent_channel import CHANNEL_TOPIC, batch_topic
+from .transport.channel_hub import ChannelHub
 from .core.cooperative_work import CooperativeWork
 from .schema_agent_node import SchemaAgentNode
 
@@ -166,6 +167,7 @@ class AgentHost(Node):
             trigger = self.create_guard_condition(lambda: self.work.run())
             self.work = CooperativeWork(trigger.trigger, work_slice, self._step_failed)
         self.agents: list[SchemaAgentNode] = []
+        self.hub: ChannelHub | None = None
 
     def wait_for_channel_recorder(self) -> bool:
         """Offer the agent channel and wait until someone (the recorder) subscribes, so that the
@@ -174,14 +176,18 @@ class AgentHost(Node):
             return True
         from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
         channel = self.names.team(CHANNEL_TOPIC)
-        topics = [channel] + [inbox_topic(robot, channel) for robot in self.robots]
-        # The inboxes carry batches, the shared topic single messages (agent_channel).
+        topics = [channel, batch_topic(channel)]
+        # The batch topic carries batches, the shared topic single messages (agent_channel).
         publishers = [self.create_publisher(AgentMessage if topic == channel else AgentMessageBatch, topic,
                                             qos.RELIABLE) for topic in topics]
+        def recorded(topic: str, publisher) -> bool:
+            # Agent processes subscribe to the channel topics too: only another node counts.
+            return publisher.get_subscription_count() > 0 and any(
+                not info.node_name.startswith('schema_agent') for info in self.get_subscriptions_info_by_topic(topic))
         deadline = time.monotonic() + self.wait_for_recorder
-        while any(p.get_subscription_count() == 0 for p in publishers) and time.monotonic() < deadline:
+        while not all(recorded(t, p) for t, p in zip(topics, publishers)) and time.monotonic() < deadline:
             time.sleep(0.05)
-        missing = [topic for topic, p in zip(topics, publishers) if p.get_subscription_count() == 0]
+        missing = [topic for topic, p in zip(topics, publishers) if not recorded(topic, p)]
         ok = not missing
         if not ok:
             self.get_logger().warning(f'nobody subscribed to {", ".join(missing)} within {self.wait_for_recorder:g} s; '
@@ -203,11 +209,16 @@ class AgentHost(Node):
     def start_agents(self) -> None:
         cli_args, overrides = self.agent_arguments()
         caches: dict | None = {} if self.share_solution_spaces else None
+        channel = self.names.team(CHANNEL_TOPIC)
+        # Before any agent's status publisher: a teammate seeing the status can send it batches.
+        if self.executor_kind == 'single':  # threads: each agent's channel in its own callback group
+            self.hub = ChannelHub(self, channel, batch_topic(channel))
         for robot in self.robots:
             namespace = join(self.get_namespace(), robot)
             try:
                 self.agents.append(SchemaAgentNode(namespace, cli_args=cli_args, parameter_overrides=overrides,
-                                                   context=self.context, solution_caches=caches, work=self.work))
+                                                   context=self.context, solution_caches=caches, work=self.work,
+                                                   hub=self.hub))
             except ConfigurationError as error:
                 self.destroy_agents()
                 raise ConfigurationError(f'agent {namespace}/schema_agent: {error}') from None
@@ -224,6 +235,9 @@ class AgentHost(Node):
         for agent in self.agents:
             agent.destroy_node()
         self.agents.clear()
+        if self.hub is not None:
+            self.hub.destroy()
+            self.hub = None
 
 
 def _tear_down(host: AgentHost | None, executor=None) -> None:

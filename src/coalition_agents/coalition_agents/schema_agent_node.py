@@ -13,7 +13,8 @@ life cycle to
   ``fiducials`` (each detected team robot or library object X gives F_R(X, robot)), ``gps``,
   ``scan``, ``bumper`` (a report means the sensor's label is retrieved) -- see
   :class:`~.core.live_sensing.LiveSensing`; ``cmd_vel`` (COMMAND_OUT) when ``drive`` is set;
-* the agent channel, ``<team>/coalition/channel/<robot>`` inboxes
+* the agent channel, batches on ``<team>/coalition/batches`` (one publisher and subscription per
+  process: :class:`~.transport.channel_hub.ChannelHub`)
   (:class:`~.transport.agent_channel.AgentChannel`: link model, retries, exactly-once delivery,
   commitments): requests, offers, request-and-wait negotiation and streamed INFORMATION values
   (``NamedValue[] values``);
@@ -28,7 +29,7 @@ relative to that namespace; what the team shares lives under ``team_namespace`` 
 parent of the node's namespace). Channel messages wake the agent through a guard condition; its
 reasoning runs in slices of ``reasoning_slice`` wall seconds (steps of a
 :class:`~.core.cooperative_work.CooperativeWork` queue, shared by the agents of a
-schema_agent_host) so inboxes, timers and sensor reports are served in between.
+schema_agent_host) so the channel, timers and sensor reports are served in between.
 
 Malformed channel messages and sensor reports are logged and dropped; bad parameters stop the
 node with exit code 2 and a message naming the parameter.
@@ -64,6 +65,7 @@ from .core.solution_space import SolutionSpaceCache
 from .core.transport.codec import ChannelCodec, ChannelMessage, offer_message, request_message
 from .core.transport.reliable_channel import Received
 from .transport.agent_channel import CHANNEL_TOPIC, AgentChannel
+from .transport.channel_hub import ChannelHub
 
 #: Bridge sensors: name -> (topic suffix, message type).
 SENSOR_TOPICS = {
@@ -84,12 +86,14 @@ class SchemaAgentNode(Node):
     SolutionSpaceCache) and ``work`` (a CooperativeWork queue) are shared by a host between its
     agents: robots of equal capabilities then reuse each other's generated, memoised sub-trees
     (the reasoning is deterministic, so sharing changes no result, only the CPU time), and the
-    agents' deferred work runs through one queue. None: the agent's own.
+    agents' deferred work runs through one queue; ``hub`` (a
+    :class:`~.transport.channel_hub.ChannelHub`) holds the process's one channel publisher,
+    subscriptions and timer. None: the agent's own.
     """
 
     def __init__(self, namespace: str | None = None, *, cli_args: list[str] | None = None,
                  parameter_overrides: list | None = None, context=None, solution_caches: dict | None = None,
-                 work: CooperativeWork | None = None):
+                 work: CooperativeWork | None = None, hub: ChannelHub | None = None):
         super().__init__('schema_agent', namespace=namespace, context=context, cli_args=cli_args,
                          use_global_arguments=cli_args is None, parameter_overrides=parameter_overrides)
         self._port_logger = PortLogger(self.get_logger())  # the life cycle's log lines
@@ -122,7 +126,8 @@ class SchemaAgentNode(Node):
             self.work = CooperativeWork(trigger.trigger, 2 * settings['reasoning_slice'], self._step_failed)
         self.channel = AgentChannel(self, self.robot, ChannelCodec.for_team(settings.library, agent.team),
                                     settings.link, team=agent.team, on_message=self._on_message,
-                                    policy=settings.retry, work=self.work, topic=self.names.team(CHANNEL_TOPIC))
+                                    policy=settings.retry, work=self.work, topic=self.names.team(CHANNEL_TOPIC),
+                                    hub=hub)
         self.finished = Future()
         self.lifecycle = AgentLifecycle(agent, settings, self, self.channel)
         # Per-robot names are relative (this node's namespace is its robot's).

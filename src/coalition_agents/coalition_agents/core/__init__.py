@@ -81,7 +81,8 @@ Fig. 7 sensing model (FOV, range)            geometric_sensing (GeometricSensing
 Fig. 7 / Fig. 9 simulated scenarios          sim_scenarios (column_placements, bridge_scenario)
 Sec. V-B-4 / Fig. 9 message delay and loss   transport.link_model (LinkModel, DelayDistribution)
 Agent channel messages                       transport.codec (ChannelCodec, ChannelMessage,
-                                             MessageKind), transport.batching (Outbox, batches)
+                                             MessageKind), transport.batching (Outbox, batches),
+                                             transport.batch_columns (a batch's wire columns)
 Request-and-wait negotiation, retries        transport.commitments (CommitmentLedger,
                                              Negotiation), transport.retry (RetryPolicy),
                                              transport.reliable_channel (ReliableChannel)

@@ -12,7 +12,7 @@ the bag (:func:`read_run`):
   the start of its search to its first coalition, the re-formings and the final states;
 * ground truth (/ground_truth/bodies): the box's and the navigating robot's final distances to
   their goals, and every trajectory (the plot);
-* the channel traffic (the agents' inbox topics, batches unpacked) by message kind;
+* the channel traffic (the batch topic, batches unpacked) by message kind;
 * conflicts: a robot whose status moves from one coalition to another without being released in
   between held two commitments (the CommitmentLedger forbids it; this checks it from outside;
   :func:`.coalition_bag.conflicting_commitments`).

@@ -1,7 +1,8 @@
 """Reading a recorded coalition run: the agents' statuses and the channel traffic from its bag.
 
-The recorder of a simulated run keeps ``/coalition/channel``, every robot's inbox
-``/coalition/channel/<robot>`` and every ``/<robot>/coalition`` status (AgentStatus);
+The recorder of a simulated run keeps ``/coalition/channel``, the batch topic
+``/coalition/batches`` (older bags: every robot's inbox ``/coalition/channel/<robot>``) and every
+``/<robot>/coalition`` status (AgentStatus);
 :func:`read_coalition_bag` turns them into a :class:`CoalitionRun`, and the functions below
 measure it (from the agents' own stamps: a status is stamped when it is published, a channel
 message when it leaves the link model, i.e. after its sampled delay):
@@ -42,9 +43,13 @@ from typing import Sequence
 
 from ..core.agent_state import AgentState
 from ..core.coalition_sharing import CoalitionPart, conflicting_pairs
+from ..core.transport.batch_columns import message_rows
 from ..core.transport.codec import MessageKind
 
 CHANNEL = '/coalition/channel'
+#: the team's batch topic (every agent's batches, AgentMessageBatch columns); older bags have one
+#: inbox topic per robot, ``/coalition/channel/<robot>``, of nested batches (read too)
+BATCHES = '/coalition/batches'
 STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
 #: States that release a robot from the coalition it was committed to.
 RELEASED = (AgentState.IDLE, AgentState.FAILED, AgentState.SEARCHING)
@@ -109,7 +114,7 @@ class CoalitionRun:
     statuses: list[StatusRecord] = field(default_factory=list)
     #: logical channel messages (every message of a batch, every piggybacked ACK as kind 3)
     messages: list[MessageRecord] = field(default_factory=list)
-    #: ROS messages on the channel topics (batches on the inboxes, single messages on the shared topic)
+    #: ROS messages on the channel topics (batches, single messages on the shared topic)
     ros_messages: int = 0
 
     def robots(self) -> list[str]:
@@ -147,10 +152,15 @@ def read_coalition_bag(bag: Path) -> CoalitionRun:
     from collab_tools.core.bag_analysis import read_messages
     run = CoalitionRun()
     for topic, _, msg in read_messages(Path(bag)):
-        if topic == CHANNEL or topic.startswith(CHANNEL + '/'):  # the shared topic and the inboxes
+        if topic in (CHANNEL, BATCHES) or topic.startswith(CHANNEL + '/'):  # shared topic, batches, old inboxes
             run.ros_messages += 1
             stamp = _stamp(msg.header)
-            if hasattr(msg, 'acked_ids'):  # an AgentMessageBatch (transport.agent_channel): stamped when it left the link
+            if hasattr(msg, 'kinds'):  # an AgentMessageBatch of columns, stamped when it left the link
+                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, kind, members, cost)
+                                    for kind, members, cost in message_rows(msg))
+                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
+                                    for _ in msg.acked_ids)
+            elif hasattr(msg, 'acked_ids'):  # an older bag's AgentMessageBatch of nested messages
                 run.messages.extend(MessageRecord(stamp, m.sender, m.receiver, int(m.kind), tuple(m.members),
                                                   float(m.cost)) for m in msg.messages)
                 run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
@@ -335,7 +345,7 @@ def kind_totals(run: CoalitionRun) -> dict[str, int]:
 
 
 
-__all__ = ['CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE',
+__all__ = ['BATCHES', 'CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE',
            'StatusRecord', 'commitment_check', 'commitments', 'conflicting_commitments', 'kind_totals',
            'leader_timeline', 'message_counts', 'read_coalition_bag', 'shared_commitments', 'status_record',
            'status_topic']

@@ -27,7 +27,7 @@ from ..core.errors import ConfigError
 from ..core.sim_scenarios import (
     Placement, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, capability_text,
 )
-from .coalition_bag import CHANNEL, status_topic
+from .coalition_bag import BATCHES, status_topic
 
 Log = Callable[[str], None]
 
@@ -142,8 +142,9 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
         return agent_parameter_file(common, {robot: per_robot[robot] for robot in group}, AGENT_NODE)
     experiment = load_experiment(config_dir / 'experiments' / EXPERIMENT_FILE)
     experiment['timeout'] = setup.timeout_s
-    experiment['record']['topics'] = (list(experiment['record']['topics']) + [f'{CHANNEL}/{r}' for r in robots]
-                                      + [status_topic(r) for r in robots])
+    # What the analysis reads (coalition_bag): the channel's batches and every robot's status.
+    experiment['record']['topics'] = list(dict.fromkeys(list(experiment['record']['topics']) + [BATCHES]
+                                                        + [status_topic(r) for r in robots]))
     nodes = []
     for node in experiment['nodes']:
         if node['executable'] != 'schema_agent_host':

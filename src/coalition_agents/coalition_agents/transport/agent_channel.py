@@ -1,33 +1,36 @@
-"""The agent-to-agent channel of a coalition agent on ROS 2: one inbox topic per robot carrying
-batches, a link model on the sending side, retries and commitments from :mod:`..core.transport.reliable_channel`.
+"""The agent-to-agent channel of a coalition agent on ROS 2: batches on the team's batch topic, a
+link model on the sending side, retries and commitments from :mod:`..core.transport.reliable_channel`.
 
 Aggregation (:mod:`..core.transport.batching`): an agent does not publish its logical messages one by one.
 It buffers them per recipient and publishes, at the end of each processing step, ONE
-``coalition_interfaces/AgentMessageBatch`` per recipient on that robot's inbox
-``<team>/coalition/channel/<robot>`` (:func:`inbox_topic`; ``/coalition/channel/<robot>`` with the
-default team namespace ``/``). QoS: :data:`CHANNEL_QOS`, reliable like ``collab_tools.qos.RELIABLE``
-so that the only losses are the modelled ones, but with a queue of :data:`QUEUE_DEPTH` instead of
-10 -- deliberately: a search burst queues hundreds of batches, and a full KEEP_LAST queue
-silently replaces unread ones. ACKs are not messages of their own: their ids ride in ``acked_ids`` of the next
-batch to that robot, or in an ack-only batch after ``ack_delay_s`` (default: the tick period)
-if nothing else goes there. Negotiation messages (COMMIT_REQUEST/ACCEPT/REJECT, RELEASE) are
-flushed at once and processed first on receipt. "End of the processing step" is a guard condition
-triggered by the first message queued: rclpy's executor runs it after the callbacks that were
-ready together (e.g. a burst of batches and the agent's re-evaluation), so one step's messages to
-one robot leave as one batch. Why: one ROS message per logical message (plus one per ACK) was
-~12,000-31,000 ROS messages for the Fig. 9 column of 10; their per-message cost in rclpy, not the
-algorithm, starved the agents.
+``coalition_interfaces/AgentMessageBatch`` per recipient on the team's batch topic
+``<team>/coalition/batches`` (``/coalition/batches`` with the default team namespace ``/``), its
+messages stored column-wise (:mod:`..core.transport.batch_columns`). QoS: :data:`~.channel_hub.CHANNEL_QOS`,
+reliable like ``collab_tools.qos.RELIABLE`` so that the only losses are the modelled ones, but with
+a queue of :data:`~.channel_hub.QUEUE_DEPTH` instead of 10 -- deliberately: a search burst queues
+hundreds of batches, and a full KEEP_LAST queue silently replaces unread ones. ACKs are not
+messages of their own: their ids ride in ``acked_ids`` of the next batch to that robot, or in an
+ack-only batch after ``ack_delay_s`` (default: the tick period) if nothing else goes there.
+Negotiation messages (COMMIT_REQUEST/ACCEPT/REJECT, RELEASE) are flushed at once and processed
+first on receipt. "End of the processing step" is the process's :class:`~.channel_hub.ChannelHub`
+guard condition, triggered by the first message queued: rclpy's executor runs it after the
+callbacks that were ready together, so one step's messages to one robot leave as one batch.
+
+The process's agents share one :class:`~.channel_hub.ChannelHub` (one publisher, one
+subscription of the batch topic and one of the shared topic, one timer, one guard condition;
+a standalone agent has its own): the hub hands each channel the batches addressed to its robot
+(:meth:`AgentChannel.accept_batch`) and drives its retries (:meth:`AgentChannel.on_tick`).
 
 Each batch goes through the sender's :class:`~..core.transport.link_model.LinkModel`: ONE loss draw and ONE
 delay sample per batch (a lost batch loses every message and ack in it; the retries re-send the
 unacknowledged ones, each retry only the logical messages still unanswered). So an experiment's
 loss probability is per batch. Delayed batches wait in one queue per agent, drained on the
-channel's ``tick_s`` timer, at each flush and whenever a batch arrives: a batch leaves at its
-sampled delay or up to ``tick_s`` later.
+hub's timer, at each flush and whenever a batch arrives: a batch leaves at its sampled delay or
+up to ``tick_s`` later.
 
-Received batches are validated (:func:`~..core.transport.batching.decode_batch`: a batch from an unknown
-robot or for another robot is logged and dropped whole; a malformed message inside a batch is
-logged and dropped alone, the others are processed), run through the
+Received batches are validated (:func:`~..core.transport.batch_columns.decode_columns`: a batch from an
+unknown robot, or whose columns disagree, is logged and dropped whole; a malformed message inside
+a batch is logged and dropped alone, the others are processed), run through the
 :class:`~..core.transport.reliable_channel.ReliableChannel` (duplicates answered again but delivered once,
 ACKs, commitment answers) and handed to ``on_message``: negotiation messages at once, requests,
 offers and streamed values in slices of at most ``work_slice_s`` of the agent's processing
@@ -36,14 +39,13 @@ a schema_agent_host shares between its agents), so the inbox is drained -- and e
 waiting for the agent's reasoning, and a COMMIT_REQUEST is never queued behind it. The channel
 never raises from a ROS callback.
 
-The shared topic ``/coalition/channel`` still carries single ``AgentMessage`` s for tools and
-tests (a message addressed to another robot is dropped unread; one without receiver is for
-everyone); the agents themselves only publish batches.
+The shared topic ``<team>/coalition/channel`` still carries single ``AgentMessage`` s for tools and
+tests (a message addressed to another robot is not handed to this one; one without receiver is
+for everyone); the agents themselves only publish batches.
 
 Streamed information (kind INFORMATION = 8, :meth:`AgentChannel.stream`) goes into the same
-batches but is never acknowledged or retried (the latest value wins). Its values travel in
-AgentMessage's ``values`` (``NamedValue[]``: ``{name: x, value: 1.2}, ...``), checked by the
-codec like every other field.
+batches but is never acknowledged or retried (the latest value wins); its values travel in the
+batch's ``value_names`` / ``values`` columns, checked by the codec like every other field.
 
 Usage (in the schema_agent node)::
 
@@ -59,115 +61,31 @@ import itertools
 import time
 from typing import Callable, Iterable, Sequence
 
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from collab_tools import qos as standard_qos
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
 
-from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
+from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
 
-from ..core.transport.batching import Batch, InboxQueue, Outbox, decode_batch
+from ..core.transport.batch_columns import decode_columns
+from ..core.transport.batching import Batch, InboxQueue, Outbox, local_messages
 from ..core.cooperative_work import CooperativeWork
-from ..core.transport.codec import KIND_FIELDS, ChannelCodec, ChannelMessage, MessageKind, information_message
+from ..core.transport.codec import ChannelCodec, ChannelMessage, information_message
 from ..core.errors import CoalitionError
 from ..core.transport.link_model import LinkModel
 from ..core.transport.commitments import Negotiation
 from ..core.transport.reliable_channel import Received, ReliableChannel, Undelivered
 from ..core.transport.retry import RetryPolicy
+from .batch_wire import batch_from_ros, batch_to_ros, from_ros, to_ros
+from .channel_hub import BATCH_TOPIC, CHANNEL_QOS, CHANNEL_TOPIC, QUEUE_DEPTH, ChannelHub
 
-#: the channel under the team namespace (``names.team(CHANNEL_TOPIC)``)
-CHANNEL_TOPIC = 'coalition/channel'
 #: the channel of the default team namespace ``/``
 DEFAULT_TOPIC = '/' + CHANNEL_TOPIC
-#: publisher and subscription queue depth of the channel
-QUEUE_DEPTH = 5000
-#: RELIABLE (reliable, volatile) with a queue deep enough for the burst of a whole search
-CHANNEL_QOS = QoSProfile(history=standard_qos.RELIABLE.history, depth=QUEUE_DEPTH,
-                         reliability=standard_qos.RELIABLE.reliability, durability=standard_qos.RELIABLE.durability)
+#: the batch topic of the default team namespace ``/``
+DEFAULT_BATCH_TOPIC = '/' + BATCH_TOPIC
 
 
-def inbox_topic(robot: str, topic: str = DEFAULT_TOPIC) -> str:
-    """The topic on which ``robot``'s agent receives the copies addressed to it."""
-    return f'{topic}/{robot}'
-
-
-def to_ros(message: ChannelMessage, stamp=None) -> AgentMessage:
-    """The AgentMessage of a channel message (fields unused by its kind stay empty)."""
-    data = message.to_dict()
-    msg = AgentMessage()
-    if stamp is not None:
-        msg.header.stamp = stamp
-    msg.message_id = message.message_id
-    msg.sender = message.sender
-    msg.receiver = message.receiver
-    msg.kind = int(message.kind)
-    msg.conversation_id = message.conversation_id
-    msg.in_reply_to = message.in_reply_to
-    if 'label' in data:
-        msg.label = _information(data['label'])
-    if 'chain' in data:
-        msg.chain = [ChainLink(requester=link['requester'], label=_information(link['label']))
-                     for link in data['chain']]
-    if 'instance' in data:
-        msg.instance = _information(data['instance'])
-    if 'cost' in data:
-        msg.cost = float(data['cost'])
-    if 'members' in data:
-        msg.members = list(data['members'])
-    msg.coalition_id = data.get('coalition_id', '')
-    msg.hold_seconds = float(data.get('hold_seconds', 0.0))
-    msg.reason = data.get('reason', '')
-    if 'values' in data:
-        msg.values = [NamedValue(name=entry['name'], value=entry['value']) for entry in data['values']]
-    return msg
-
-
-def from_ros(msg: AgentMessage) -> dict:
-    """The codec's dict form of an AgentMessage: the common fields and those of its kind. An
-    unknown kind keeps only the common fields (the codec rejects it, naming the kind)."""
-    data = {'kind': int(msg.kind), 'message_id': int(msg.message_id), 'sender': msg.sender,
-            'receiver': msg.receiver, 'conversation_id': int(msg.conversation_id),
-            'in_reply_to': int(msg.in_reply_to)}
-    try:
-        fields = KIND_FIELDS[MessageKind(msg.kind)]
-    except ValueError:
-        return data
-    readers = {
-        'label': lambda: _information_dict(msg.label),
-        'chain': lambda: [{'requester': link.requester, 'label': _information_dict(link.label)} for link in msg.chain],
-        'instance': lambda: _information_dict(msg.instance),
-        'cost': lambda: float(msg.cost),
-        'members': lambda: list(msg.members),
-        'coalition_id': lambda: msg.coalition_id,
-        'hold_seconds': lambda: float(msg.hold_seconds),
-        'reason': lambda: msg.reason,
-        'values': lambda: [{'name': entry.name, 'value': float(entry.value)} for entry in msg.values],
-    }
-    for name in fields:
-        data[name] = readers[name]()
-    return data
-
-
-def batch_to_ros(batch: Batch) -> AgentMessageBatch:
-    """The AgentMessageBatch of a core batch."""
-    return AgentMessageBatch(sender=batch.sender, recipient=batch.recipient, sequence=batch.sequence,
-                             messages=[to_ros(message) for message in batch.messages],
-                             acked_ids=list(batch.acked_ids))
-
-
-def batch_from_ros(msg: AgentMessageBatch) -> dict:
-    """The dict form :func:`~..core.transport.batching.decode_batch` reads; ``messages`` stay AgentMessages
-    (converted one by one with :func:`from_ros`, so one malformed message fails alone)."""
-    return {'sender': msg.sender, 'recipient': msg.recipient, 'sequence': int(msg.sequence),
-            'messages': list(msg.messages), 'acked_ids': [int(acked) for acked in msg.acked_ids]}
-
-
-def _information(data: dict) -> Information:
-    return Information(type=data['type'], referents=list(data['referents']))
-
-
-def _information_dict(info: Information) -> dict:
-    return {'type': info.type, 'referents': list(info.referents)}
+def batch_topic(channel_topic: str = DEFAULT_TOPIC) -> str:
+    """The batch topic beside a single-message channel topic (``/coalition/channel`` -> ``/coalition/batches``)."""
+    return channel_topic[:-len('channel')] + 'batches' if channel_topic.endswith('/channel') else channel_topic + '_batches'
 
 
 class AgentChannel:
@@ -176,8 +94,10 @@ class AgentChannel:
     ``on_message(message, received)`` gets every new message for this robot (REQUEST, OFFER,
     COMMIT_REQUEST with ``received.accepted`` already decided and answered, COMMIT_ACCEPT /
     COMMIT_REJECT, RELEASE, INFORMATION); ``on_undelivered(undelivered)`` every copy given up
-    after the retries. ``tick_s`` is the period of the retry timer; ``ack_delay_s`` (default
-    ``tick_s``) how long an ACK waits for a batch to ride on before it goes alone.
+    after the retries. ``tick_s`` is the period of the retry timer while something is pending;
+    ``ack_delay_s`` (default ``tick_s``) how long an ACK waits for a batch to ride on before it
+    goes alone. ``hub``: the process's shared endpoints (a schema_agent_host's); None: the
+    channel creates its own (``topic``, ``tick_s``, ``drain_slice_s`` apply to it).
     """
 
     def __init__(self, node: Node, robot: str, codec: ChannelCodec, link_model: LinkModel, *,
@@ -185,7 +105,7 @@ class AgentChannel:
                  on_undelivered: Callable[[Undelivered], None] | None = None,
                  policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01,
                  ack_delay_s: float | None = None, work_slice_s: float = 0.005, drain_slice_s: float = 0.01,
-                 work: CooperativeWork | None = None):
+                 work: CooperativeWork | None = None, hub: ChannelHub | None = None):
         if robot not in codec.catalog.robots:
             raise CoalitionError(f"robot: {robot!r} is not in the codec's team ({', '.join(codec.robots)})")
         unknown = [name for name in team if name not in codec.catalog.robots]
@@ -206,26 +126,17 @@ class AgentChannel:
         self.batches_published = 0
         self.rejected = 0         # malformed messages (alone or inside a batch)
         self.rejected_batches = 0
-        self._delayed: list[tuple[float, int, AgentMessageBatch]] = []  # (due, order, batch): a heap
+        self._delayed: list[tuple[float, int, AgentMessageBatch, Batch]] = []  # (due, order, msg, batch): a heap
         self._order = itertools.count()
         self._flush_scheduled = False
         #: received messages (already acknowledged) waiting for the agent, negotiation messages first
         self._deferred: InboxQueue[Received] = InboxQueue()
         self.work_slice_s = work_slice_s
-        self.drain_slice_s = drain_slice_s
-        qos = CHANNEL_QOS
-        publisher = lambda kind, name: node.create_publisher(  # noqa: E731
-            kind, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
-        subscribe = lambda kind, name, callback: node.create_subscription(  # noqa: E731
-            kind, name, callback, qos, event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        self.subscription = subscribe(AgentMessage, topic, self._on_wire)
-        # Created up front: a publisher created at the first send would publish before it matched
-        # the receiver's subscription (volatile: that batch would be lost).
-        self.inboxes = {teammate: publisher(AgentMessageBatch, inbox_topic(teammate, topic))
-                        for teammate in self.team if teammate != robot}
-        self.inbox = subscribe(AgentMessageBatch, inbox_topic(robot, topic), self._on_batch)
-        self.retry_timer = node.create_timer(tick_s, self._on_tick)
-        self.flush_trigger = node.create_guard_condition(self._on_flush)
+        self.own_hub = hub is None
+        if hub is None:  # a standalone agent: endpoints of its own
+            hub = ChannelHub(node, topic, batch_topic(topic), tick_s=tick_s, drain_slice_s=drain_slice_s)
+        self.hub = hub
+        hub.attach(self)
         self.work_trigger = None
         if work is None:  # a channel of its own; a host shares one between its agents
             self.work_trigger = node.create_guard_condition(lambda: self.work.run())
@@ -283,9 +194,12 @@ class AgentChannel:
             self._transmit_all(self.outbox.flush(now, list(dict.fromkeys(urgent))))
         if not self._flush_scheduled and self.outbox.has_messages():
             self._flush_scheduled = True
-            self.flush_trigger.trigger()
+            self.hub.request_flush(self)
+        elif self.outbox.next_ack_due() < float('inf'):
+            self.hub.wake()  # an ACK waits for a batch to ride on (or goes alone after ack_delay_s)
 
-    def _on_flush(self) -> None:
+    def flush(self) -> None:
+        """The end of a processing step (the hub's guard condition): one batch per recipient."""
         self._flush_scheduled = False
         self._release_due()
         self._transmit_all(self.outbox.flush(self.now()))
@@ -298,7 +212,8 @@ class AgentChannel:
         """Apply the link model on the sending side, per batch: drop it, or publish it after the
         sampled delay."""
         # The copies leave now (a lost batch too: the link loses it, not the sender).
-        self.core.transmitted(batch.recipient, [message.message_id for message in batch.messages], self.now())
+        now = self.now()
+        self.core.transmitted(batch.recipient, [message.message_id for message in batch.messages], now)
         delivered, delay = self.link_model.sample()
         if not delivered:
             self.batches_dropped += 1
@@ -308,9 +223,10 @@ class AgentChannel:
             return
         msg = batch_to_ros(batch)
         if delay <= 0.0:
-            self._publish(msg)
+            self._publish(msg, batch)
             return
-        heapq.heappush(self._delayed, (self.now() + delay, next(self._order), msg))
+        heapq.heappush(self._delayed, (now + delay, next(self._order), msg, batch))
+        self.hub.wake()
 
     def _release_due(self) -> None:
         """Publish the delayed batches whose time has come (see the module docstring)."""
@@ -318,59 +234,34 @@ class AgentChannel:
             return
         now = self.now()
         while self._delayed and self._delayed[0][0] <= now:
-            self._publish(heapq.heappop(self._delayed)[2])
+            _, _, msg, batch = heapq.heappop(self._delayed)
+            self._publish(msg, batch)
 
-    def _publish(self, msg: AgentMessageBatch) -> None:
+    def _publish(self, msg: AgentMessageBatch, batch: Batch) -> None:
         msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.inboxes[msg.recipient].publish(msg)
+        self.hub.publish(msg, batch)
         self.batches_published += 1
 
     def teammates_listening(self, presence_topic: Callable[[str], str]) -> int:
-        """How many teammates' agents subscribe to their inbox (their agent is up): only a
-        subscription by the node publishing ``presence_topic(teammate)`` (a topic its agent
-        publishes) counts -- a bag recorder subscribes to every inbox too, before the agents of
-        another process are up."""
-        count = 0
-        for teammate, publisher in self.inboxes.items():
-            if publisher.get_subscription_count() == 0:
-                continue
-            agents = {(info.node_namespace, info.node_name)
-                      for info in self.node.get_publishers_info_by_topic(presence_topic(teammate))}
-            readers = {(info.node_namespace, info.node_name)
-                       for info in self.node.get_subscriptions_info_by_topic(publisher.topic_name)}
-            count += bool(agents & readers)
-        return count
+        """How many teammates' agents are up: those whose agent publishes ``presence_topic(teammate)``
+        (its latched status). An agent process creates its batch subscription before any of its
+        agents' status publishers (a host its hub, then the agents; a standalone agent its channel,
+        then its status), and a participant announces its endpoints in that order, so a teammate
+        whose status is visible already listens on the batch topic. (A bag recorder subscribes to
+        the batch topic too, so a subscription alone proves nothing.)"""
+        return sum(bool(self.node.get_publishers_info_by_topic(presence_topic(teammate)))
+                   for teammate in self.team if teammate != self.robot)
 
-    # --- receiving ---------------------------------------------------------------------------------
-    def _on_batch(self, msg: AgentMessageBatch) -> None:
-        """Drain the inbox: this batch and those queued behind it in the subscription (for at
-        most ``drain_slice_s``), each decoded, acknowledged and queued for the agent; then the
-        negotiation messages of all of them go to the agent. Why: the executor hands a
-        subscription one message per wait cycle, and a cycle of ten hosted agents lasts tens of
-        milliseconds during a search burst -- taken one per cycle, the batches queued up for
-        seconds, their ACKs with them, and a COMMIT_REQUEST waited behind the whole backlog."""
+    # --- receiving (called by the hub) ---------------------------------------------------------------
+    def accept_batch(self, msg: AgentMessageBatch) -> None:
+        """A batch addressed to this robot: decoded, acknowledged and queued for the agent (the
+        hub hands the negotiation messages over with :meth:`deliver_urgent` once it drained the
+        subscription). Due delayed batches leave first."""
         self._release_due()
-        end = time.perf_counter() + self.drain_slice_s
-        while msg is not None:
-            self._accept_batch(msg)
-            msg = self._take_queued_batch() if time.perf_counter() < end else None
-        self._deliver_urgent()
-
-    def _take_queued_batch(self) -> AgentMessageBatch | None:
-        """The next batch waiting in the inbox subscription, or None (as rclpy's executor takes
-        it: ``Subscription.handle.take_message``)."""
         try:
-            with self.inbox.handle:
-                taken = self.inbox.handle.take_message(self.inbox.msg_type, self.inbox.raw)
-        except Exception as exc:  # noqa: BLE001 - an rclpy without this API: one batch per callback
-            self.node.get_logger().debug(f'{self.robot}: cannot drain the inbox: {exc}')
-            return None
-        return None if taken is None else taken[0]
-
-    def _accept_batch(self, msg: AgentMessageBatch) -> None:
-        try:
-            decoded = decode_batch(self.codec, batch_from_ros(msg), self.robot, from_ros)
-        except (CoalitionError, ValueError) as exc:
+            data = batch_from_ros(msg)
+            decoded = decode_columns(self.codec, data, self.robot)
+        except (CoalitionError, ValueError, TypeError) as exc:
             self.rejected_batches += 1
             self.node.get_logger().warning(f'{self.robot}: dropped malformed channel batch {msg.sequence} from '
                                            f'{msg.sender!r}: {exc}')
@@ -378,15 +269,21 @@ class AgentChannel:
         for index, why in decoded.rejected:
             self.rejected += 1
             self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from {msg.sender!r} '
-                                           f'(batch {msg.sequence}, id {msg.messages[index].message_id}): {why}')
+                                           f'(batch {msg.sequence}, id {data["message_ids"][index]}): {why}')
         now = self.now()
         for message in decoded.messages:
             self._receive(message, now, deliver_urgent=False)
 
-    def _on_wire(self, msg: AgentMessage) -> None:
-        """A single message on the shared topic (tools, tests)."""
-        if msg.sender == self.robot or (msg.receiver and msg.receiver != self.robot):
-            return  # our own copies and other robots' mail: not for us (cheap check before decoding)
+    def accept_local(self, batch: Batch) -> None:
+        """A batch from a teammate in this process (the hub hands it over in-process: no wire, no
+        codec; see :func:`~..core.transport.batching.local_messages`)."""
+        self._release_due()
+        now = self.now()
+        for message in local_messages(batch):
+            self._receive(message, now, deliver_urgent=False)
+
+    def accept_single(self, msg: AgentMessage) -> None:
+        """A single message on the shared topic (tools, tests) for this robot."""
         try:
             message = self.codec.decode(from_ros(msg))
         except (CoalitionError, ValueError) as exc:
@@ -400,7 +297,7 @@ class AgentChannel:
         """Acknowledge / answer at once and queue the message for the agent
         (:class:`~..core.transport.batching.InboxQueue`): negotiation messages are handed over at the end of
         the callback (``deliver_urgent``; a batch's all at once), the others in time slices
-        (:meth:`_on_work`), so that the inbox never waits behind the agent's reasoning: a
+        (:meth:`_deliver_deferred`), so that the inbox never waits behind the agent's reasoning: a
         COMMIT_REQUEST is answered while the helper is still busy with requests and offers, and
         ACKs leave at once, in the order the batches arrived (what the sender's fast retransmit
         relies on)."""
@@ -410,11 +307,11 @@ class AgentChannel:
             return
         self._deferred.put(received.deliver, received)
         if deliver_urgent:
-            self._deliver_urgent()
+            self.deliver_urgent()
         if self._deferred:
             self.work.request(self._deliver_deferred)
 
-    def _deliver_urgent(self) -> None:
+    def deliver_urgent(self) -> None:
         while (entry := self._deferred.pop_urgent()) is not None:
             self._deliver(*entry)
 
@@ -439,7 +336,15 @@ class AgentChannel:
         except Exception as exc:  # noqa: BLE001 - the agent's handler must not kill the executor
             self.node.get_logger().error(f'{self.robot}: handling {message} failed: {type(exc).__name__}: {exc}')
 
-    def _on_tick(self) -> None:
+    def busy(self) -> bool:
+        """Whether the hub's timer has work for this channel soon: copies awaiting an answer,
+        delayed batches, ACKs waiting for a batch."""
+        return bool(self._delayed) or self.core.next_deadline() < float('inf') or \
+            self.outbox.next_ack_due() < float('inf') or self._flush_scheduled
+
+    def on_tick(self) -> bool:
+        """The hub's timer: due delayed batches, retries, ack-only batches, copies given up.
+        Returns :meth:`busy`."""
         self._release_due()
         now = self.now()
         resend, failed = self.core.poll(now)
@@ -454,6 +359,7 @@ class AgentChannel:
                     self.on_undelivered(undelivered)
                 except Exception as exc:  # noqa: BLE001
                     self.node.get_logger().error(f'{self.robot}: on_undelivered failed: {exc}')
+        return self.busy()
 
     def stats(self) -> dict:
         return {**self.core.stats.to_dict(), 'dropped': self.dropped, 'malformed': self.rejected,
@@ -463,16 +369,13 @@ class AgentChannel:
 
     def destroy(self) -> None:
         self._delayed.clear()
-        self.node.destroy_timer(self.retry_timer)
-        self.node.destroy_guard_condition(self.flush_trigger)
+        self._deferred.clear()
+        self.hub.detach(self)
         if self.work_trigger is not None:
             self.node.destroy_guard_condition(self.work_trigger)
-        self._deferred.clear()
-        self.node.destroy_subscription(self.subscription)
-        self.node.destroy_subscription(self.inbox)
-        for publisher in self.inboxes.values():
-            self.node.destroy_publisher(publisher)
+        if self.own_hub:
+            self.hub.destroy()
 
 
-__all__ = ['AgentChannel', 'CHANNEL_QOS', 'CHANNEL_TOPIC', 'DEFAULT_TOPIC', 'QUEUE_DEPTH', 'batch_from_ros',
-           'batch_to_ros', 'from_ros', 'inbox_topic', 'to_ros']
+__all__ = ['AgentChannel', 'BATCH_TOPIC', 'CHANNEL_QOS', 'CHANNEL_TOPIC', 'DEFAULT_BATCH_TOPIC', 'DEFAULT_TOPIC',
+           'QUEUE_DEPTH', 'batch_from_ros', 'batch_to_ros', 'batch_topic', 'from_ros', 'to_ros']

@@ -22,6 +22,8 @@ reliable channel (:mod:`.reliable_channel`: ids, retries, exactly-once, commitme
   first, then the messages in :func:`processing_order`. A malformed batch header raises
   :class:`~..errors.RequestError` naming the field; a malformed message inside a batch is reported
   in :attr:`DecodedBatch.rejected` and the others are still delivered.
+* :func:`local_messages`: the same for a batch handed over in-process (a teammate in the same
+  agent process: no wire, no codec -- the sender checked its messages).
 * :class:`InboxQueue`: what the receiver's reliable channel delivers waits here for the agent,
   negotiation messages before requests, offers and streamed values. The transport's callback
   only decodes a batch, acknowledges its messages and queues them; the agent takes from this
@@ -202,6 +204,14 @@ class DecodedBatch:
     rejected: list[tuple[int, str]]
 
 
+def local_messages(batch: Batch) -> list[ChannelMessage]:
+    """What the recipient's reliable channel gets from a batch delivered in-process (a teammate in
+    the same agent process; no wire, no codec: the sender checked its messages): the piggybacked
+    ACKs first, then the messages in processing order -- as :func:`decode_batch` returns them."""
+    return [*(piggybacked_ack(batch.sender, batch.recipient, acked) for acked in batch.acked_ids),
+            *processing_order(batch.messages)]
+
+
 def decode_batch(codec: ChannelCodec, data: Any, robot: str,
                  message_reader: Callable[[Any], Any] = lambda item: item, path: str = 'batch') -> DecodedBatch:
     """Validate a received batch for ``robot`` (dict form: sender, recipient, sequence, messages,
@@ -244,5 +254,5 @@ def decode_batch(codec: ChannelCodec, data: Any, robot: str,
     return decoded
 
 
-__all__ = ['Batch', 'DecodedBatch', 'InboxQueue', 'Outbox', 'OutboxStats', 'URGENT_KINDS', 'decode_batch', 'piggybacked_ack',
-           'processing_order']
+__all__ = ['Batch', 'DecodedBatch', 'InboxQueue', 'Outbox', 'OutboxStats', 'URGENT_KINDS', 'decode_batch', 'local_messages',
+           'piggybacked_ack', 'processing_order']
