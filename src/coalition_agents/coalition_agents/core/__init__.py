@@ -63,6 +63,8 @@ Algorithm 2 (one robot, step by step)        coalition (RobotReasoner.plan_task,
 Algorithm 2 (a team, in one process)         coalition_search (CoalitionSearch, StaticSensing)
 Algorithm 2 (one robot, distributed)         agent (SchemaAgent), agent_spaces (FeasibleCoalition,
                                              reply spaces, incremental evaluation)
+Algorithm 2's memos (agent and team search)  reasoning_caches (OfferBook: memoised offer view,
+                                             AnswerMemo: answers_request remembered)
 Sec. V: an agent's life cycle (search time,  lifecycle (AgentLifecycle: start, settle rule,
 negotiate, set up, execute, re-form)         negotiation fallback, commitment, re-forming),
                                              agent_state (AgentState, StatusReport); its ports

@@ -54,7 +54,8 @@ from .coalition_solution import InformationOffer, LocalCoalitionSolution
 from .errors import RequestError
 from .information import InformationInstance
 from .live_sensing import LiveSensing
-from .requests import InformationRequest, addressees, answers_request, to_absolute
+from .reasoning_caches import AnswerMemo, OfferBook
+from .requests import InformationRequest, addressees, to_absolute
 from .schemas import Costs, SchemaKind, SchemaLibrary
 from .solution_space import PotentialSolution, SolutionSpaceCache
 from .tasks import Task
@@ -115,16 +116,18 @@ class SchemaAgent:
         self._sensor_users: dict[str, list[tuple[object, int]]] = {}
         #: where the next budgeted :meth:`tick` starts in the reply spaces (round robin)
         self._cursor = 0
-        self._answering: dict[tuple[InformationInstance, InformationInstance], bool] = {}
+        #: answers_request remembered (reasoning_caches: shared with the in-process search)
+        self._answers = AnswerMemo()
         self.active_sensors: set[str] = set()
         self.sensing = LiveSensing(robot, team[robot], self.team, library.catalog.objects, reading_timeout_s)
-        #: the last :meth:`_offer_view` (None: offers arrived since) and :meth:`_refresh_readings`
-        self._view: dict[InformationInstance, list[InformationOffer]] | None = None
+        #: the last :meth:`_refresh_readings` (the same object while the readings stay the same)
         self._sensed: dict[str, tuple[InformationInstance, ...]] = {}
         #: (request label, instance) -> the cheapest offer of it (what a reply uses)
         self._cheapest: dict[tuple[InformationInstance, InformationInstance], InformationOffer] = {}
         #: request label -> (provider, instance) -> (offer, members)
-        self.offers: dict[InformationInstance, dict[tuple[str, InformationInstance], tuple[InformationOffer, tuple[str, ...]]]] = {}
+        #: request label -> (provider, instance) -> (offer, members); its view is memoised
+        #: (reasoning_caches.OfferBook, shared with the in-process search)
+        self.offers: OfferBook[tuple[InformationOffer, tuple[str, ...]]] = OfferBook(lambda entry: entry[0])
         self._local: list[InformationRequest] = []
         #: robots left out of the coalitions of the current search (see :meth:`restart`)
         self.excluded: frozenset[str] = frozenset()
@@ -177,7 +180,6 @@ class SchemaAgent:
             return
         self.excluded = frozenset(exclude)
         self.offers.clear()
-        self._view = None
         self._cheapest.clear()
         self.reasoner.ledger.sent.clear()
         self._unregister_root()
@@ -215,19 +217,17 @@ class SchemaAgent:
         """Record an offer for one of this robot's requests (cheaper ones replace dearer)."""
         if offer.request not in self.reasoner.ledger.sent:
             raise OfferRejected(f'{self.robot} did not request {offer.request} (offer of {offer.provider})')
-        if not answers_request(offer.instance, offer.request):
+        if not self._answers(offer.instance, offer.request):
             raise OfferRejected(f'{offer.instance} from {offer.provider} does not answer {offer.request}')
         self.offers_received += 1
-        offers = self.offers.setdefault(offer.request, {})
         key = (offer.provider, offer.instance)
-        kept = offers.get(key)
+        kept = self.offers.get(offer.request, key)
         if kept is not None and kept[0].cost <= offer.cost:
             return
         received = ReceivedOffer(offer.provider, offer.request, offer.instance, None, offer.cost,  # type: ignore[arg-type]
                                   offer.members)
         cheapest = self._cheapest.get((offer.request, offer.instance))
-        offers[key] = (received, offer.members)
-        self._view = None
+        self.offers.put(offer.request, key, (received, offer.members))
         if cheapest is None or offer_rank(received) < offer_rank(cheapest):
             self._cheapest[(offer.request, offer.instance)] = received
         # What is no longer usable: the task's solutions use every offer (the replaced one is
@@ -251,11 +251,9 @@ class SchemaAgent:
 
     def _offer_view(self) -> dict[InformationInstance, list[InformationOffer]]:
         """request label -> the offers received, as of now. The same object until an offer
-        arrives, so that the reasoner's candidate lists and indexes for it serve every slice and
-        every :meth:`coalitions` call in between."""
-        if self._view is None:
-            self._view = {label: [offer for offer, _ in offers.values()] for label, offers in self.offers.items()}
-        return self._view
+        arrives (:class:`~.reasoning_caches.OfferBook`), so that the reasoner's candidate lists
+        and indexes for it serve every slice and every :meth:`coalitions` call in between."""
+        return self.offers.view()
 
     @staticmethod
     def _members_of(lcs: LocalCoalitionSolution) -> list[tuple[str, ...]]:
@@ -400,14 +398,6 @@ class SchemaAgent:
                     self.outbox.send_offer(summary, reply_to)
         space.served = len(space.subscribers)
 
-    def _answers(self, answer: InformationInstance, label: InformationInstance) -> bool:
-        """:func:`~.requests.answers_request`, remembered (the same pairs come up at every serve)."""
-        key = (answer, label)
-        known = self._answering.get(key)
-        if known is None:
-            known = self._answering[key] = answers_request(answer, label)
-        return known
-
     def coalitions(self, now: float) -> list[FeasibleCoalition]:
         """The executable coalitions of the task now, in non-descending coalition cost."""
         sensed = self._refresh_readings(now)
@@ -457,7 +447,7 @@ class SchemaAgent:
                 if request.requester not in wanted:
                     continue
                 for answer, (_, _, lcs) in space.best.items():
-                    if answers_request(answer, request.label):
+                    if self._answers(answer, request.label):
                         served.setdefault((request.requester, answer), lcs)
         return [(requester, answer, lcs) for (requester, answer), lcs in served.items()]
 

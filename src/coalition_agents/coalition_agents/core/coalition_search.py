@@ -49,7 +49,8 @@ from .coalition_solution import (
 )
 from .errors import CoalitionError, InformationError, SearchError
 from .information import InformationInstance, check_entity_name
-from .requests import InformationRequest, addressees, answers_request
+from .reasoning_caches import AnswerMemo, OfferBook
+from .requests import InformationRequest, addressees
 from .schemas import Costs, SchemaLibrary
 from .solution_space import Constraints, PotentialSolution, SolutionSpaceCache
 from .tasks import Task
@@ -168,8 +169,11 @@ class _Service:
 class _Agent:
     def __init__(self, reasoner: RobotReasoner):
         self.reasoner = reasoner
+        #: replaced (never changed in place) when a sensor is read: the reasoner keeps its candidate
+        #: lists for as long as it gets the same readings and offer view objects
         self.readings: dict[str, tuple[InformationInstance, ...]] = {}
-        self.offers: dict[InformationInstance, dict[tuple[str, InformationInstance], InformationOffer]] = {}
+        #: request label -> (provider, instance) -> offer, the view memoised (as the node's agent's)
+        self.offers: OfferBook[InformationOffer] = OfferBook()
         self.services: dict[InformationInstance, _Service] = {}
         self.all_services: list[_Service] = []
         self.users: dict[InformationInstance, list[_Service]] = collections.defaultdict(list)
@@ -177,7 +181,7 @@ class _Agent:
         self.root: _Service | None = None
 
     def offer_view(self) -> dict[InformationInstance, list[InformationOffer]]:
-        return {label: list(offers.values()) for label, offers in self.offers.items()}
+        return self.offers.view()
 
 
 class CoalitionSearch:
@@ -206,6 +210,8 @@ class CoalitionSearch:
                                                    potential_solution_limit=potential_solution_limit))
                        for robot, capabilities in team.items()}
         self._queue: collections.deque = collections.deque()
+        #: answers_request remembered (reasoning_caches, as the node's agent's)
+        self._answers = AnswerMemo()
 
     # Public -------------------------------------------------------------------------------------
     def run(self, initiators: Sequence[str]) -> dict[str, CoalitionResult]:
@@ -269,7 +275,7 @@ class CoalitionSearch:
             service.fresh.add(index)
             for sensor, _ in reasoner.sensing_needs(solution):
                 if sensor not in agent.readings:
-                    agent.readings[sensor] = tuple(self.sensing.readings(reasoner.robot, sensor))
+                    agent.readings = {**agent.readings, sensor: tuple(self.sensing.readings(reasoner.robot, sensor))}
             for label in reasoner.request_labels(solution):
                 if not service.uses[label]:
                     agent.users[label].append(service)
@@ -309,14 +315,13 @@ class CoalitionSearch:
             service.new_subscriber = True
 
     def _on_offer(self, agent: _Agent, offer: InformationOffer) -> None:
-        if not answers_request(offer.instance, offer.request):
+        if not self._answers(offer.instance, offer.request):
             return  # not an instance of what was requested: dropped (a node logs it)
-        offers = agent.offers.setdefault(offer.request, {})
         key = (offer.provider, offer.instance)
-        kept = offers.get(key)
+        kept = agent.offers.get(offer.request, key)
         if kept is not None and kept.cost <= offer.cost:
             return
-        offers[key] = offer
+        agent.offers.put(offer.request, key, offer)
         agent.delta.setdefault(offer.request, []).append(offer)
         for service in agent.users.get(offer.request, ()):
             service.dirty.update(service.uses[offer.request])
@@ -359,7 +364,7 @@ class CoalitionSearch:
         best = service.best()
         for position, request in enumerate(service.subscribers):
             for answer in sorted(best, key=str):
-                if not answers_request(answer, request.label):
+                if not self._answers(answer, request.label):
                     continue
                 cost, lcs = best[answer]
                 previous = service.sent.get((position, answer))
