@@ -49,6 +49,11 @@ PATHS = {
 }
 
 
+#: With ``breakdown``: the on-demand camera with /clock every tick, to tell the camera's share from the clock's.
+BREAKDOWN = {'on_demand_clock_every_tick': {**PATHS['on_demand'],
+                                            BRIDGE: {**PATHS['on_demand'][BRIDGE], 'clock_rate': 0.0}}}
+
+
 def experiment_file(config_dir: Path, out: Path) -> Path:
     """config/experiments/sgcm_case.yaml, also recording the bridge's status (frames rendered)."""
     data = yaml.safe_load((config_dir / 'experiments' / 'sgcm_case.yaml').read_text())
@@ -112,20 +117,21 @@ def render_comparison(task: TaskConfig, case: Case, frames: int = 10) -> dict:
 
 
 def run_benchmark(task: TaskConfig, task_file: Path, cases: list[Case], config_dir: Path, out_dir: Path,
-                  repeats: int = 1, log: Callable[[str], None] = print) -> dict:
+                  repeats: int = 1, breakdown: bool = False, log: Callable[[str], None] = print) -> dict:
     experiment = experiment_file(config_dir, out_dir / 'sgcm_case_bench.yaml')
+    paths = {**PATHS, **(BREAKDOWN if breakdown else {})}
     runs = []
     for case in cases:
         model = RearrangementModel(task_of(case, task))
         for repeat in range(repeats):
             # Interleaved, alternating which goes first, so a load change hits both paths alike.
-            order = list(PATHS) if repeat % 2 == 0 else list(PATHS)[::-1]
+            order = list(paths) if repeat % 2 == 0 else list(paths)[::-1]
             for path in order:
                 run_dir = out_dir / f'{case.name}-{path}-{repeat}'
                 log(f'{case.name} {path} (repeat {repeat + 1}/{repeats}) ...')
                 started = time.monotonic()
                 result = run_case(task, task_file, case, run_dir, config_dir, experiment=experiment,
-                                  parameters=PATHS[path], log=None)
+                                  parameters=paths[path], log=None)
                 row = {'case': case.name, 'path': path, 'repeat': repeat, 'exit_code': result.exit_code,
                        'session_s': time.monotonic() - started, 'run_dir': str(run_dir)}
                 if result.bag is not None:
@@ -137,16 +143,16 @@ def run_benchmark(task: TaskConfig, task_file: Path, cases: list[Case], config_d
                     f"({row.get('camera_renderer')}), rounds {row.get('rounds')}, goal {row.get('goal_reached')}, "
                     f"{row['session_s']:.0f} s session")
                 runs.append(row)
-    results = summarise(runs)
+    results = summarise(runs, list(paths))
     results['render'] = render_comparison(task, cases[0])
     (out_dir / 'results.json').write_text(json.dumps(results, indent=2))
     return results
 
 
-def summarise(runs: list[dict]) -> dict:
-    """Medians per path, the ratio, and whether every case ended the same way on both paths."""
+def summarise(runs: list[dict], paths: list[str]) -> dict:
+    """Medians per path, the ratio, and whether every case ended the same way on every path."""
     per_path = {}
-    for path in PATHS:
+    for path in paths:
         rows = [r for r in runs if r['path'] == path and 'real_time_factor' in r]
         per_path[path] = {
             'real_time_factor_median': statistics.median(r['real_time_factor'] for r in rows) if rows else None,
@@ -157,7 +163,8 @@ def summarise(runs: list[dict]) -> dict:
     for r in runs:
         outcomes.setdefault(r['case'], {}).setdefault(r['path'], set()).add(
             (r.get('rounds'), r.get('goal_reached'), r.get('stuck')))
-    same = all(len(set().union(*paths.values())) == 1 and len(paths) == len(PATHS) for paths in outcomes.values())
+    same = all(len(set().union(*by_path.values())) == 1 and len(by_path) == len(paths)
+               for by_path in outcomes.values())
     ref, new = (per_path[p]['real_time_factor_median'] for p in ('reference', 'on_demand'))
     return {'real_time_factor': {p: v['real_time_factor_median'] for p, v in per_path.items()},
             'real_time_factor_ratio': new / ref if ref and new else None,
