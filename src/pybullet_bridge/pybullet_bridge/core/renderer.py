@@ -6,11 +6,14 @@ client goes through it. It must be loaded right after connecting, before any bod
 loaded earlier are unknown to it and the frame comes back empty. The reference renderer is pybullet's
 CPU TinyRenderer, which every pybullet has.
 
-The two do not give pixel-identical frames (measured on the SGCM table, 320 x 320): labels differ
-only on object borders (0.8 % of the pixels, a pixel more or less at the edges of cubes and the
-table), and the RGB differs everywhere in shading, the ground's checker and the table's thin grid
-lines (which EGL barely draws). Consumers that read labels (centroids, cells) and chromaticity see
-the same states; anything comparing RGB pixels must use one renderer.
+The two do not give pixel-identical frames (measured on this machine, software Mesa 22.3): on the
+SGCM table (320 x 320) labels differ only on object borders (0.8 % of the pixels, a pixel more or
+less at the edges of cubes and the table), and the RGB differs everywhere: shading and a specular
+highlight, the ground's checker, and thin shapes lying on a surface, which EGL does not draw (the
+table's grid lines, the robots' dark heading markers). The SGCM state estimate (label centroids,
+chromaticity) comes out the same; the role engine's colour tracker finds no robot at all in EGL
+frames (it needs the heading markers). Hence TinyRenderer stays the bridge's default and EGL is
+opt-in (``camera_renderer``: egl or auto).
 
 ``renderer``: ``tiny`` (the reference), ``egl`` (the plugin, or an error) or ``auto`` (the plugin
 where it loads, TinyRenderer otherwise, with the reason). This module only decides; the scene

@@ -34,8 +34,9 @@ BRIDGE_SETTINGS = SettingsSchema(
     Setting('status_rate', 1.0, 'Hz of wall-clock time for ~/status (also while paused)',
             low=0.0, high=MAX_RATE, low_open=True, dynamic=True),
     Setting('start_paused', False, 'start paused; advance with ~/step or ~/pause false'),
-    Setting('camera_renderer', AUTO, "the top-view camera's renderer: egl (pybullet's eglRenderer plugin, "
-            'or exit 2), tiny (TinyRenderer, the reference) or auto (egl where it loads, else tiny)',
+    Setting('camera_renderer', TINY, "the top-view camera's renderer: tiny (TinyRenderer, the reference), "
+            "egl (pybullet's eglRenderer plugin, or exit 2) or auto (egl where it loads, else tiny); EGL "
+            'frames differ (core/renderer.py): it draws no robot heading markers, which robot_tracker needs',
             choices=RENDERERS),
 )
 
