@@ -98,7 +98,7 @@ class CompiledFSEPlanner:
             self._games[objects] = self.tables.kernel_arguments(objects)
         return self._games[objects]
 
-    def levels(self, state: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, tuple]]:
+    def levels(self, state: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """S_0 .. S_{T-1}: (states, keys, hash table) per stage (Algorithm 1 lines 3-10)."""
         state = np.asarray(state, dtype=np.int64).reshape(1, -1)
         game = self._game(int(state.sum()))
