@@ -13,7 +13,8 @@ camera info and robot sensors are sensor data (best effort), the label legend, c
 and ground truth latched, cmd_vel accepted from best-effort publishers.
 
 /clock goes out every control tick, or at ``clock_rate`` (simulated Hz) when set: each message
-costs every node on simulated time a wake-up, the largest ROS cost of a fast run.
+costs every node on simulated time a wake-up. As fast as possible, ``fast_batch_period`` runs
+several ticks per timer call (the executor's round trip costs about as much as an idle tick).
 
 Parameters (core/settings.py): real_time_factor, publish_camera, compressed_rate, jpeg_quality,
 ground_truth_rate and status_rate change at run time (``ros2 param set``); the others are read-only
@@ -71,6 +72,7 @@ class PybulletBridge(Node):
         self.control_period = settings['control_period']
         self.status_rate = settings['status_rate']
         self.pacer = TickPacer(self.control_period, settings['real_time_factor'])
+        self.fast_batch_period = settings['fast_batch_period']
         self.ground_truth = SimTimeSchedule(settings['ground_truth_rate'])
         # clock_rate 0: /clock every tick; else at that rate (and after every ~/step).
         self.clock = SimTimeSchedule(settings['clock_rate']) if settings['clock_rate'] > 0 else None
@@ -156,6 +158,7 @@ class PybulletBridge(Node):
             adapter.destroy()
         self.adapters = create_adapters(self, self.scene.entities, self.reject)
         self.steps_per_tick = steps_per_tick(self.control_period, self.scene.physics_dt)
+        self.pacer.batch_ticks = max(1, round(self.fast_batch_period / (self.steps_per_tick * self.scene.physics_dt)))
         self.ground_truth.restart()
         if self.clock is not None:
             self.clock.restart()

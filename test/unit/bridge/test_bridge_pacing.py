@@ -34,6 +34,13 @@ def test_factor_zero_runs_one_tick_per_call():
     assert [pacer.ticks_due(t, 0.0) for t in (0.0, 0.0, 10.0)] == [1, 1, 1]
 
 
+def test_factor_zero_runs_a_batch_per_call_when_asked():
+    pacer = TickPacer(control_period=0.01, real_time_factor=0.0, batch_ticks=6)
+    assert [pacer.ticks_due(t, 0.0) for t in (0.0, 0.0, 7.0)] == [6, 6, 6]
+    pacer.real_time_factor = 1.0                       # paced again: the batch no longer applies
+    assert pacer.ticks_due(0.0, 0.0) == 0
+
+
 def test_schedule_is_due_at_time_zero_then_every_period():
     schedule = SimTimeSchedule(rate=20.0)
     due = [t for t in (0.0, 0.01, 0.04, 0.05, 0.08, 0.1) if schedule.take_if_due(t)]

@@ -4,7 +4,9 @@ The bridge steps the physics in control ticks (``control_period`` of simulated t
 number of physics steps). With a real-time factor > 0 a tick is due when simulated time lags
 ``real_time_factor`` x the wall time elapsed since an anchor; a machine that falls behind catches
 up at most :data:`MAX_CATCH_UP_TICKS` at once, then re-anchors (it runs slower than asked rather
-than spiralling). Factor 0 runs one tick per timer call, as fast as possible.
+than spiralling). Factor 0 runs as fast as possible: ``batch_ticks`` ticks per timer call (one by
+default; more spare the executor's round trip per tick, and the node handles its incoming commands
+and requests between batches, so a batch is also their latency in simulated time).
 """
 from __future__ import annotations
 
@@ -22,9 +24,10 @@ def steps_per_tick(control_period: float, physics_dt: float) -> int:
 class TickPacer:
     """How many control ticks are due now for a real-time factor."""
 
-    def __init__(self, control_period: float, real_time_factor: float):
+    def __init__(self, control_period: float, real_time_factor: float, batch_ticks: int = 1):
         self.control_period = control_period
         self.real_time_factor = real_time_factor
+        self.batch_ticks = batch_ticks          # ticks per call at factor 0
         self._reference: tuple[float, float] | None = None   # (wall time, sim time) of the anchor
 
     @property
@@ -38,7 +41,7 @@ class TickPacer:
 
     def ticks_due(self, wall_time: float, sim_time: float) -> int:
         if self.real_time_factor <= 0:
-            return 1
+            return self.batch_ticks
         if self._reference is None:
             self._reference = (wall_time, sim_time)
         wall0, sim0 = self._reference

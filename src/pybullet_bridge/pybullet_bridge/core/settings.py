@@ -25,6 +25,9 @@ BRIDGE_SETTINGS = SettingsSchema(
             low=0.0, high=MAX_REAL_TIME_FACTOR, dynamic=True),
     Setting('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '
             'rounded to a whole number of physics steps', low=0.0, high=1.0, low_open=True),
+    Setting('fast_batch_period', 0.0, 'at real_time_factor 0: simulated seconds run per timer call '
+            '(whole control ticks, at least one); commands and requests are handled between batches, so '
+            'this is also their latency; 0 = one tick per call', low=0.0, high=1.0),
     Setting('clock_rate', 0.0, 'Hz of simulated time for /clock; 0 = every control tick. Every node '
             'on simulated time handles each /clock message (about 0.2 ms of Python each), so a case '
             'run fast gains from a lower rate; timers then fire at most this often',

@@ -6,12 +6,14 @@ path, the paths interleaved, in one benchmark run:
 
 * ``reference`` -- as before issue 14: the arms subscribe to the image stream (``camera_on_demand``
   false), so the bridge renders every camera period, with TinyRenderer (``camera_renderer: tiny``),
-  and publishes /clock every control tick (``clock_rate: 0``);
+  one control tick per timer call (``fast_batch_period: 0``) and /clock every tick (``clock_rate: 0``);
 * ``on_demand`` -- as the experiment file says now: the arms ask ``<camera>/get_frame`` once per look
   (``camera_on_demand`` true, the default) and the bridge renders nothing else (TinyRenderer, the
-  bridge's default), /clock at the experiment's ``clock_rate`` (50 Hz);
-* with ``breakdown`` also ``on_demand_clock_every_tick`` (/clock every tick: the clock's share) and
-  ``on_demand_egl`` (``camera_renderer: auto``: pybullet's EGL plugin where it loads).
+  bridge's default), 50 ms of simulation per timer call and /clock at 50 Hz (the experiment's
+  ``fast_batch_period`` and ``clock_rate``);
+* with ``breakdown`` also ``on_demand_tick_by_tick`` (on demand, but one tick per call and /clock
+  every tick: the camera's share alone) and ``on_demand_egl`` (``camera_renderer: auto``:
+  pybullet's EGL plugin where it loads).
 
 From each run's bag: the real-time factor (simulated over wall seconds while the simulation ran,
 from the bridge's ``~/status`` at 10 Hz), the camera frames rendered (its last status), and the SGCM
@@ -43,17 +45,19 @@ LEADER, FOLLOWER, BRIDGE = 'leader_arm/leader_planner', 'follower_arm/follower_e
 
 #: The two paths: per-node parameters by session label.
 PATHS = {
-    'reference': {BRIDGE: {'camera_renderer': 'tiny', 'clock_rate': 0.0, 'status_rate': STATUS_RATE}, LEADER: {'camera_on_demand': False},
+    'reference': {BRIDGE: {'camera_renderer': 'tiny', 'clock_rate': 0.0, 'fast_batch_period': 0.0,
+                           'status_rate': STATUS_RATE}, LEADER: {'camera_on_demand': False},
                   FOLLOWER: {'camera_on_demand': False}},
     'on_demand': {BRIDGE: {'status_rate': STATUS_RATE}, LEADER: {'camera_on_demand': True},
                   FOLLOWER: {'camera_on_demand': True}},
 }
 
 
-#: With ``breakdown``: the on-demand camera with /clock every tick (the camera's share vs the clock's),
-#: and with the EGL renderer where it loads.
-BREAKDOWN = {'on_demand_clock_every_tick': {**PATHS['on_demand'],
-                                            BRIDGE: {**PATHS['on_demand'][BRIDGE], 'clock_rate': 0.0}},
+#: With ``breakdown``: the on-demand camera alone (one tick per call, /clock every tick), and with the
+#: EGL renderer where it loads.
+BREAKDOWN = {'on_demand_tick_by_tick': {**PATHS['on_demand'],
+                                        BRIDGE: {**PATHS['on_demand'][BRIDGE], 'clock_rate': 0.0,
+                                                 'fast_batch_period': 0.0}},
              'on_demand_egl': {**PATHS['on_demand'],
                                BRIDGE: {**PATHS['on_demand'][BRIDGE], 'camera_renderer': 'auto'}}}
 
