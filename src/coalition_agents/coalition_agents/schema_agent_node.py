@@ -2,10 +2,8 @@
 
 The reasoning is :class:`~.core.agent.SchemaAgent` and the life cycle (search, settle rule,
 negotiation, commitment, streaming, motor schemas, re-forming) :class:`~.core.lifecycle.AgentLifecycle`,
-both pure Python; this node declares the parameters (:data:`~.core.settings.AGENT_SETTINGS`;
-``max_speed``, ``goal_tolerance``, ``stream_rate`` and ``tick_period`` apply when set at run
-time, the others are read-only), converts messages, owns the timers and QoS, and connects the
-life cycle to
+both pure Python; this node declares the parameters (:data:`~.core.settings.AGENT_SETTINGS`; the
+dynamic ones apply at run time), converts messages, owns the timers and QoS, and connects it to
 
 * the bridge: ``set_sensor_active`` switches the ES-EPS pairs a potential solution needs
   (temporarily during the search; after it only the chosen coalition's stay on), and their topics
@@ -13,26 +11,22 @@ life cycle to
   ``fiducials`` (each detected team robot or library object X gives F_R(X, robot)), ``gps``,
   ``scan``, ``bumper`` (a report means the sensor's label is retrieved) -- see
   :class:`~.core.live_sensing.LiveSensing`; ``cmd_vel`` (COMMAND_OUT) when ``drive`` is set;
-* the agent channel, batches on ``<team>/coalition/batches`` (one publisher and subscription per
-  process: :class:`~.transport.channel_hub.ChannelHub`)
-  (:class:`~.transport.agent_channel.AgentChannel`: link model, retries, exactly-once delivery,
-  commitments): requests, offers, request-and-wait negotiation and streamed INFORMATION values
-  (``NamedValue[] values``);
+* the agent channel (:class:`~.transport.agent_channel.AgentChannel`: batches on
+  ``<team>/coalition/batches``, one subscription per process, link model, retries, exactly-once
+  delivery, commitments): requests, offers, negotiation, streamed INFORMATION values (the stream
+  timer runs only while the robot holds a coalition);
 * ``coalition`` (coalition_interfaces/AgentStatus, LATCHED): its typed state, the coalition, its
   leader, members and cost and the stamps of its search; it reads the statuses of the robots in
   ``exit_after`` at ``<team>/<teammate>/coalition``. ``commitments`` lists every coalition it
   serves at once (its own first) and what its schemas do for each (capability sharing).
 
-The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``; the robot is the
-last component of the namespace, :class:`collab_tools.names.RobotNode`). Per-robot names are
-relative to that namespace; what the team shares lives under ``team_namespace`` (default: the
-parent of the node's namespace). Channel messages wake the agent through a guard condition; its
-reasoning runs in slices of ``reasoning_slice`` wall seconds (steps of a
+The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``,
+:class:`collab_tools.names.RobotNode`); what the team shares lives under ``team_namespace``
+(default: the parent of the node's namespace). Its reasoning runs in slices of ``reasoning_slice`` wall seconds (steps of a
 :class:`~.core.cooperative_work.CooperativeWork` queue, shared by the agents of a
 schema_agent_host) so the channel, timers and sensor reports are served in between.
 
-Malformed channel messages and sensor reports are logged and dropped; bad parameters stop the
-node with exit code 2 and a message naming the parameter.
+Malformed channel messages and sensor reports are logged and dropped; bad parameters exit 2.
 """
 from __future__ import annotations
 
@@ -141,6 +135,7 @@ class SchemaAgentNode(Node):
         self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT) if settings['drive'] else None
         self.stream_timer = self.create_timer(1.0 / settings['stream_rate'],
                                               lambda: self.lifecycle.on_stream_timer(self._now()))
+        self._streaming = True  # until the first status says what it holds
         for name in settings['exit_after']:
             self.create_subscription(AgentStatus, self.names.teammate(name, 'coalition'),
                                      lambda msg, name=name: self._on_teammate_status(name, msg), qos.LATCHED)
@@ -154,6 +149,13 @@ class SchemaAgentNode(Node):
     def _set_stream_rate(self, value: float) -> None:
         self.stream_timer.timer_period_ns = int(1e9 / value)
         self.stream_timer.reset()
+        self.stream_timer.cancel() if not self._streaming else None
+
+    def _stream_while(self, serving: bool) -> None:
+        """The stream timer runs only while the robot holds a coalition (idle: no wake-ups)."""
+        if serving != self._streaming:
+            self._streaming = serving
+            self.stream_timer.reset() if serving else self.stream_timer.cancel()
 
     def _set_tick_period(self, value: float) -> None:
         self.lifecycle.set_tick_period(value)
@@ -188,6 +190,7 @@ class SchemaAgentNode(Node):
     # --- the life cycle's port ----------------------------------------------------------------------
     def publish_status(self, report: StatusReport) -> None:
         self.status_pub.publish(status_message(report, self.channel.stats(), self.get_clock().now().to_msg()))
+        self._stream_while(bool(report.commitments))
 
     def command(self, velocity: Velocity) -> None:
         if self.cmd_pub is not None:

@@ -113,3 +113,12 @@ def test_the_bag_rows_name_kind_members_and_cost(library):
 def test_peek_recipient_refuses_what_is_not_a_batch():
     from coalition_agents.transport.batch_wire import peek_recipient
     assert peek_recipient(b'') is None and peek_recipient(b'\x00\x01\x00\x00\xff\xff\xff\xff') is None
+
+
+def test_a_batch_handed_over_in_process_gives_what_the_wire_gives(library, codec):
+    """local_messages (a teammate in the same agent process: no wire, no codec) yields the messages
+    decode_columns yields for the same batch: the piggybacked ACKs first, then processing order."""
+    from coalition_agents.core.transport.batching import local_messages, processing_order
+    messages = every_kind(library)
+    batch = Batch('robot_2', 'robot_1', 4, tuple(processing_order(messages[::-1])), (5, 6))
+    assert local_messages(batch) == decode_columns(codec, wire(batch), 'robot_1').messages
