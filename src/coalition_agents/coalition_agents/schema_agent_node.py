@@ -5,12 +5,10 @@ negotiation, commitment, streaming, motor schemas, re-forming) :class:`~.core.li
 both pure Python; this node declares the parameters (:data:`~.core.settings.AGENT_SETTINGS`; the
 dynamic ones apply at run time), converts messages, owns the timers and QoS, and connects it to
 
-* the bridge: ``set_sensor_active`` switches the ES-EPS pairs a potential solution needs
-  (temporarily during the search; after it only the chosen coalition's stay on), and their topics
-  are what the sensors retrieve (QoS SENSOR_IN, so best-effort publishers are accepted):
-  ``fiducials`` (each detected team robot or library object X gives F_R(X, robot)), ``gps``,
-  ``scan``, ``bumper`` (a report means the sensor's label is retrieved) -- see
-  :class:`~.core.live_sensing.LiveSensing`; ``cmd_vel`` (COMMAND_OUT) when ``drive`` is set;
+* the bridge: ``set_sensor_active`` switches the ES-EPS pairs a potential solution needs; their
+  topics (QoS SENSOR_IN) are what the sensors retrieve: ``fiducials`` (each detected robot or
+  object X gives F_R(X, robot)), ``gps``, ``scan``, ``bumper`` (:class:`~.core.live_sensing.LiveSensing`;
+  a report retrieving new information makes the agent reason at once); ``cmd_vel`` if ``drive``;
 * the agent channel (:class:`~.transport.agent_channel.AgentChannel`: batches on
   ``<team>/coalition/batches``, one subscription per process, link model, retries, exactly-once
   delivery, commitments): requests, offers, negotiation, streamed INFORMATION values (the stream
@@ -22,7 +20,7 @@ dynamic ones apply at run time), converts messages, owns the timers and QoS, and
 
 The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``,
 :class:`collab_tools.names.RobotNode`); what the team shares lives under ``team_namespace``
-(default: the parent of the node's namespace). Its reasoning runs in slices of ``reasoning_slice`` wall seconds (steps of a
+(default: the parent of the node's namespace). Its reasoning runs in ``reasoning_slice`` (steps of a
 :class:`~.core.cooperative_work.CooperativeWork` queue, shared by the agents of a
 schema_agent_host) so the channel, timers and sensor reports are served in between.
 
@@ -128,6 +126,7 @@ class SchemaAgentNode(Node):
         self.status_pub = self.create_publisher(AgentStatus, 'coalition', qos.LATCHED)
         self.sensor_client = self.create_client(SetSensorActive, 'set_sensor_active')
         self._pending_switches: list[tuple[str, bool]] = []
+        self._retrieved: dict[str, tuple] = {}  # sensor -> the instances of its last report
         for sensor in settings.team[self.robot].sensor_names:
             topic, msg_type = SENSOR_TOPICS[sensor]
             self.create_subscription(msg_type, topic, lambda msg, sensor=sensor: self._on_sensor(sensor, msg),
@@ -148,11 +147,9 @@ class SchemaAgentNode(Node):
     # --- dynamic parameters (the others are read-only) -------------------------------------------
     def _set_stream_rate(self, value: float) -> None:
         self.stream_timer.timer_period_ns = int(1e9 / value)
-        self.stream_timer.reset()
-        self.stream_timer.cancel() if not self._streaming else None
+        self.stream_timer.reset() if self._streaming else None
 
-    def _stream_while(self, serving: bool) -> None:
-        """The stream timer runs only while the robot holds a coalition (idle: no wake-ups)."""
+    def _stream_while(self, serving: bool) -> None:  # the stream timer runs only while a coalition is held
         if serving != self._streaming:
             self._streaming = serving
             self.stream_timer.reset() if serving else self.stream_timer.cancel()
@@ -218,7 +215,10 @@ class SchemaAgentNode(Node):
             return  # a report published before we switched it off
         try:
             detected, values = sensor_values(sensor, msg)
-            self.agent.sensing.report(sensor, self._now(), detected, values)
+            found = self.agent.sensing.report(sensor, self._now(), detected, values)
+            if self._retrieved.get(sensor) != found:  # new information: reason now, not at the next tick
+                self._retrieved[sensor] = found
+                self.request_reasoning()
         except (CoalitionError, ValueError) as exc:
             self.get_logger().warning(f'{self.robot}: dropped a malformed {sensor} report: {exc}',
                                       throttle_duration_sec=5.0)
