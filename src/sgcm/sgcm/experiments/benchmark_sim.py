@@ -24,6 +24,7 @@ many label pixels differ between them.
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import time
 from pathlib import Path
@@ -127,6 +128,7 @@ def render_comparison(task: TaskConfig, case: Case, frames: int = 10) -> dict:
 def run_benchmark(task: TaskConfig, task_file: Path, cases: list[Case], config_dir: Path, out_dir: Path,
                   repeats: int = 1, breakdown: bool = False, log: Callable[[str], None] = print) -> dict:
     experiment = experiment_file(config_dir, out_dir / 'sgcm_case_bench.yaml')
+    load_before = [round(v, 2) for v in os.getloadavg()]
     paths = {**PATHS, **(BREAKDOWN if breakdown else {})}
     runs = []
     for case in cases:
@@ -153,6 +155,7 @@ def run_benchmark(task: TaskConfig, task_file: Path, cases: list[Case], config_d
                 runs.append(row)
     results = summarise(runs, list(paths))
     results['render'] = render_comparison(task, cases[0])
+    results['load'] = {'before': load_before, 'after': [round(v, 2) for v in os.getloadavg()]}   # 1, 5, 15 min
     (out_dir / 'results.json').write_text(json.dumps(results, indent=2))
     return results
 
