@@ -187,3 +187,61 @@ def test_a_lateral_offset_decays_without_zig_zag_under_camera_latency():
     lateral = np.array(lateral)
     assert lateral.min() > -0.01                        # no overshoot across the centre line
     assert abs(lateral[-1]) < 0.005
+
+
+def test_far_off_its_heading_the_robot_turns_in_place_first():
+    """Beyond ALIGN_ANGLE of heading error the robot does not drive (an arc off the path, or backward)
+    but turns toward its path, no faster than ROTATE_SPEED; below it, it drives."""
+    from role_engine.core.controller import ALIGN_ANGLE, ROTATE_SPEED
+    kind = robot_type('pioneer_3dx')
+    states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 5.0, 20)
+    follower = TrajectoryFollower(states, 5.0, kind)
+    for yaw in (ALIGN_ANGLE + 0.05, -(ALIGN_ANGLE + 0.05), 2.0, -3.0):
+        linear, angular = follower.command(1.0, (0.4, 0.0, yaw))
+        assert linear == 0.0 and 0.0 < abs(angular) <= ROTATE_SPEED and np.sign(angular) == -np.sign(yaw)
+    linear, _ = follower.command(1.0, (0.4, 0.0, ALIGN_ANGLE - 0.05))
+    assert linear > 0.0
+    # Turning round from facing backward, then catching up 0.5 m: 12 cm sideways at most (driving while
+    # turning swept 23 cm), and the robot never backs up behind its start.
+    poses, _, _ = simulate(follower, (0.0, 0.0, math.pi - 0.2), 9.0)
+    assert np.abs(poses[:, 1]).max() < 0.15 and poses[:, 0].min() > -0.01
+    assert math.dist(poses[-1, :2], (2.0, 0.0)) < 0.03
+
+
+def test_a_saturated_turn_keeps_its_curvature():
+    """When the tracking law asks for more than the robot's angular limit, the linear speed drops by
+    the same factor: the robot drives the commanded arc slower instead of a wider one."""
+    kind = RobotType('slow_turner', 0.2, max_linear_velocity=1.0, max_angular_velocity=0.3)
+    states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 4.0, 20)
+    free = TrajectoryFollower(states, 4.0, RobotType('free', 0.2))
+    capped = TrajectoryFollower(states, 4.0, kind)
+    pose = (0.5, 0.15, 0.4)                         # left of the path, heading further left
+    v_free, w_free = free.command(1.0, pose)
+    v_cap, w_cap = capped.command(1.0, pose)
+    assert abs(w_free) > 0.3 and w_cap == pytest.approx(math.copysign(0.3, w_free))
+    assert v_cap / w_cap == pytest.approx(v_free / w_free)
+
+
+def test_just_past_its_goal_the_robot_backs_up_steadily():
+    """Overshot by 0.25 m with the goal straight behind: the robot backs up to it. Facing away, the
+    bearing sits at +-pi and its sign flips with every noisy pose: turning round, the robot stood
+    still, commanding left and right in turn."""
+    kind = robot_type('pioneer_3dx')
+    states = polyline_trajectory(np.array([[0.0, 0.0], [1.0, 0.0]]), 4.0, 20)
+    follower = TrajectoryFollower(states, 4.0, kind)
+    commands = [follower.command(6.0, (1.25, 0.0, yaw)) for yaw in (0.01, -0.01)]
+    assert all(v < 0.0 for v, _ in commands)                      # backing up whichever way noise leans
+    assert abs(commands[0][1] - commands[1][1]) < 0.1              # and no left/right flip
+    poses, _, _ = simulate(follower, (1.25, 0.0, 0.0), 6.0)
+    assert math.dist(poses[-1, :2], (1.0, 0.0)) <= follower.position_tolerance + 1e-9
+
+
+def test_a_lagging_robot_catches_up_no_faster_than_it_can_stop_at_the_end():
+    """The role is over and the robot 0.3 m short of its end: it may not drive faster than a stop at
+    APPROACH_DECELERATION allows (it used to arrive at 1.5 x the role's speed and run past)."""
+    from role_engine.core.controller import APPROACH_DECELERATION
+    kind = robot_type('pioneer_3dx')
+    states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 4.0, 20)
+    follower = TrajectoryFollower(states, 4.0, kind)
+    linear, _ = follower.command(3.9, (1.7, 0.0, 0.0))
+    assert 0.0 < linear <= math.sqrt(2.0 * APPROACH_DECELERATION * 0.3) + 1e-9

@@ -12,7 +12,8 @@ from role_engine.core.conflict import SharedRole
 from role_engine.core.environment import Environment, RobotType
 from role_engine.core.gp_planner import GPPlanner, GPPlannerConfig
 from role_engine.core.initial_paths import straight_line_trajectory
-from role_engine.core.role_playing import AvoidanceSettings, moving_obstacle_terms, replan_process_role, role_gaps
+from role_engine.core.role_playing import (REJOIN_DISTANCE, AvoidanceSettings, moving_obstacle_terms, replan_process_role,
+                                         role_gaps)
 
 TOTAL_TIME = 20.0
 STATES = 41
@@ -201,3 +202,34 @@ def test_a_lagging_robot_replans_from_where_it_is_along_its_role():
     times = np.linspace(0.0, result.total_time, 400)
     path = SharedRole('a', result.trajectory, result.total_time, 0.2).positions(times)
     assert env.sdf.distance(path).min() > 0.0      # the body (radius + margin) never touches the corner
+
+
+def test_a_robot_near_its_role_replans_the_role_not_its_tracking_error():
+    """Within REJOIN_DISTANCE of its role the re-planned rest starts on the role (the controller closes
+    the gap), so re-plans do not bend the role towards every tracking error; farther off it starts
+    from the robot."""
+    env = corner_corridor().for_robot(RobotType('r', 0.2, inflation_margin=0.03, max_linear_velocity=0.5))
+    states, total = corner_role()
+    own = SharedRole('a', states, total, 0.2)
+    on_role = own.positions([2.0])[0]
+    near = on_role + np.array([0.0, 0.06])          # 6 cm off the centre line, inside the corridor
+    result = replan_process_role(GPPlannerConfig(**CONFIG), env, own, [], 2.0, near, horizon=4.0)
+    assert np.allclose(result.trajectory[0, :2], on_role, atol=0.01)
+    assert REJOIN_DISTANCE < 0.2
+    far = on_role + np.array([0.0, REJOIN_DISTANCE + 0.02])
+    result = replan_process_role(GPPlannerConfig(**CONFIG), env, own, [], 2.0, far, horizon=4.0)
+    assert np.allclose(result.trajectory[0, :2], far, atol=1e-6)
+
+
+
+def test_with_another_robot_in_conflict_the_replan_starts_where_the_robot_is():
+    """The role is what the others plan around: with a conflicting robot it starts at the robot's
+    true position even when the robot is only a few cm off its role."""
+    env = corner_corridor().for_robot(RobotType('r', 0.2, inflation_margin=0.03, max_linear_velocity=0.5))
+    states, total = corner_role()
+    own = SharedRole('a', states, total, 0.2)
+    near = own.positions([2.0])[0] + np.array([0.0, 0.06])
+    oncoming = SharedRole('b', np.array([[1.0, 0.0, -0.2, 0.0], [-0.3, 0.0, -0.2, 0.0]]), 6.5, 0.1, 1.0)
+    result = replan_process_role(GPPlannerConfig(**CONFIG), env, own, [oncoming], 2.0, near, horizon=4.0)
+    assert result.conflicting == ['b']
+    assert np.allclose(result.trajectory[0, :2], near, atol=1e-6)

@@ -46,6 +46,21 @@ from .trajectory import PROJECTION_STEP, check_trajectory, interpolate, nearest_
 REST_SPEED = 1e-3
 #: A lagging robot drives at most this many times the role's speed (here or at its clock).
 CATCH_UP = 1.5
+#: Heading error [rad] beyond which the robot turns in place toward its path before driving on
+#: (the rotate-to-heading threshold of Nav2's RotationShimController, 45 deg).
+ALIGN_ANGLE = math.pi / 4
+#: Deceleration [m/s^2] the speed near the role's end is planned with: half a Pioneer's 1 m/s^2, so
+#: the camera's latency and the command period still fit in the stop.
+APPROACH_DECELERATION = 0.5
+#: A point at rest at most this far behind the robot [m] is approached backward (an overshoot).
+REVERSE_DISTANCE = 0.5
+#: Fastest turn in place [rad/s] (Nav2's rotate_to_heading_angular_vel): faster, a robot with a
+#: Pioneer's 3 rad/s^2 cannot stop the turn in time and swings past the heading, back and forth.
+ROTATE_SPEED = 1.8
+
+
+def _turn_rate(angular: float) -> float:
+    return min(max(angular, -ROTATE_SPEED), ROTATE_SPEED)
 
 
 @dataclass(frozen=True)
@@ -53,8 +68,8 @@ class TrackingGains:
     """Gains of the tracking law: k_x (1/s), k_y (1/m^2), k_theta (1/m)."""
 
     k_x: float = 1.5
-    k_y: float = 8.0
-    k_theta: float = 3.0
+    k_y: float = 20.0
+    k_theta: float = 5.0
     #: Proportional gains of the at-rest approach: linear (1/s) and turning (1/s).
     k_approach: float = 1.0
     k_turn: float = 2.0
@@ -132,17 +147,34 @@ class TrajectoryFollower:
             if distance <= self.position_tolerance:
                 return 0.0, 0.0
             bearing = wrap_angle(math.atan2(dy, dx) - yaw)
-            # Drive only while roughly facing the point, so the robot never swings wide.
-            linear = gains.k_approach * distance * max(math.cos(bearing), 0.0) ** 2
-            return self._clamp(linear, gains.k_turn * bearing)
+            direction = 1.0
+            if abs(bearing) > math.pi / 2 and distance <= REVERSE_DISTANCE:
+                # Just past the point (an overshoot): back up to it. Turning round instead, a bearing
+                # near +-pi flips sign with every noisy pose, and the robot stood turning neither way.
+                bearing, direction = wrap_angle(bearing - math.pi), -1.0
+            # Drive only while roughly facing the point (or its back to it), so the robot never swings wide.
+            linear = direction * gains.k_approach * distance * max(math.cos(bearing), 0.0) ** 2
+            return self._clamp(linear, _turn_rate(gains.k_turn * bearing))
         e_x = math.cos(yaw) * dx + math.sin(yaw) * dy
         e_y = -math.sin(yaw) * dx + math.cos(yaw) * dy
         heading = math.atan2(velocity[1], velocity[0])
         curvature = (velocity[0] * acceleration[1] - velocity[1] * acceleration[0]) / speed**3
         e_theta = wrap_angle(heading - yaw)
+        if abs(e_theta) > ALIGN_ANGLE:
+            # Turn in place first: a unicycle driving while it turns that far sweeps a wide arc off
+            # its path (or backs up along the wrong one) before the lateral terms catch it.
+            return self._clamp(0.0, _turn_rate(gains.k_turn * e_theta))
+        # Catching up, never faster than a stop at APPROACH_DECELERATION allows before the role's end (a
+        # lagging robot otherwise ran past its goal); the role's own speed there is always allowed.
+        to_end = max(self._arc[-1] - self._arc[k] + e_x, 0.0)
+        cruise = min(cruise, max(speed, math.sqrt(2.0 * APPROACH_DECELERATION * to_end)))
         linear = min(max(speed * math.cos(e_theta) + gains.k_x * (e_x + lag), -cruise), cruise)
         linear, _ = self._clamp(linear, 0.0)
         angular = curvature * linear + speed * (gains.k_y * e_y + gains.k_theta * math.sin(e_theta))
+        limit_w = self.robot_type.max_angular_velocity
+        if limit_w is not None and abs(angular) > limit_w:
+            # Saturated turning keeps the commanded curvature: slower on the same arc, not straight on.
+            linear *= limit_w / abs(angular)
         return self._clamp(linear, angular)
 
     def _clamp(self, linear: float, angular: float) -> tuple[float, float]:

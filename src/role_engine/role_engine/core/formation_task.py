@@ -20,7 +20,7 @@ Settings file (YAML, e.g. config/roles/formation_demo.yaml; unknown keys are err
     arrival_tolerance: 0.08        # m from the destination at which a robot has arrived, > 0
     robot_avoidance: {clearance: 0.1, sigma: 0.02, interpolation: 3, detour_scales: [1.0, 2.0]}
                                    # the others as moving obstacles (core/role_playing.py), optional
-    controller: {k_x: 1.5, k_y: 8.0, k_theta: 3.0, k_approach: 1.0, k_turn: 2.0}
+    controller: {k_x: 1.5, k_y: 20.0, k_theta: 5.0, k_approach: 1.0, k_turn: 2.0}
                                    # the role players' tracking gains (core/controller.py), optional
     problem_detection: {stuck_distance: 0.05, stuck_time: 8.0, off_role_distance: 0.6, off_role_grace: 4.0}
                                    # Algorithm 1's "detect a problem" (core/problems.py), optional

@@ -56,6 +56,8 @@ from .gp_planner import GPPlanner, GPPlannerConfig, GPPlanResult
 from .trajectory import interpolate, nearest_time
 from .yielding import right_of_way, waiting_plans
 
+#: A robot at most this far from its role [m] re-plans the rest from its role point (see replan_process_role).
+REJOIN_DISTANCE = 0.15
 #: Speed used to time a detour's ramps when the planner has no speed limit [m/s].
 DEFAULT_DETOUR_SPEED = 0.5
 #: Instants per interval at which separations between roles are measured (reports, choice).
@@ -248,7 +250,15 @@ def replan_process_role(planner_config: GPPlannerConfig, robot_env: RobotEnviron
     relative_times = np.linspace(0.0, remaining, count)
     positions, velocities, _ = interpolate(own.trajectory, own.total_time, elapsed + relative_times)
     initial = np.hstack([positions, velocities])
-    start = np.concatenate([np.asarray(position, dtype=float), velocities[0]])
+    # A robot within REJOIN_DISTANCE of its role is the controller's to bring back: the rest of the
+    # role starts where the robot is *along* it, so the role stays the smooth, centred path it was
+    # instead of bending to every tracking error (the re-plan would then chase the robot and the
+    # robot the re-plan: a zig-zag). Farther off, or with another robot in conflict (the role is
+    # what the others plan around, so it starts where the robot really is), it starts from the robot.
+    here = np.asarray(position, dtype=float)
+    rejoin = not conflicting and math.dist(here, positions[0]) <= REJOIN_DISTANCE
+    anchor = positions[0] if rejoin else here
+    start = np.concatenate([anchor, velocities[0]])
     initial[0] = start
     goal = np.concatenate([own.trajectory[-1, :2], [0.0, 0.0]])
     planner = GPPlanner(planner_config, robot_env.sdf)
