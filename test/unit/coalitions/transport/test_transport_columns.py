@@ -122,3 +122,13 @@ def test_a_batch_handed_over_in_process_gives_what_the_wire_gives(library, codec
     messages = every_kind(library)
     batch = Batch('robot_2', 'robot_1', 4, tuple(processing_order(messages[::-1])), (5, 6))
     assert local_messages(batch) == decode_columns(codec, wire(batch), 'robot_1').messages
+
+
+def test_the_bag_rows_survive_uint8_counts_adding_up_past_255(library):
+    """A bag reader hands the count columns as uint8 arrays: the running position must not wrap."""
+    import numpy as np
+    members = tuple(f'robot_{i % 4 + 1}' for i in range(200))
+    data = {'kinds': np.array([4, 4], dtype=np.uint8), 'member_counts': np.array([200, 200], dtype=np.uint8),
+            'costs': np.array([1.0, 2.0]), 'members': list(members * 2)}
+    rows = list(message_rows(data))
+    assert rows[1] == (4, members, 2.0)

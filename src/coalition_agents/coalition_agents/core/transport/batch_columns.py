@@ -197,6 +197,7 @@ def message_rows(data: Any) -> Iterator[tuple[int, tuple[str, ...], float]]:
     get = data.get if isinstance(data, Mapping) else lambda name: getattr(data, name)
     members, position = list(get('members')), 0
     for kind, count, cost in zip(get('kinds'), get('member_counts'), get('costs')):
+        count = int(count)  # a bag reader's uint8 array element would overflow the running sum
         yield int(kind), tuple(members[position:position + count]), float(cost)
         position += count
 
