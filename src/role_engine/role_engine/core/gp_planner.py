@@ -171,7 +171,7 @@ class GPPlanner:
 
     def terms(self, state_count: int, total_time: float, start: np.ndarray, goal: np.ndarray,
               extra_terms: Sequence[CostTerm] = ()) -> list[CostTerm]:
-        """The cost terms of one problem, shared by both formulations."""
+        """The cost terms of one problem, shared by every formulation."""
         cfg = self.config
         dt = total_time / (state_count - 1)
         terms: list[CostTerm] = [
