@@ -197,7 +197,7 @@ def test_far_off_its_heading_the_robot_turns_in_place_first():
     states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 5.0, 20)
     follower = TrajectoryFollower(states, 5.0, kind)
     for yaw in (ALIGN_ANGLE + 0.05, -(ALIGN_ANGLE + 0.05), 2.0, -3.0):
-        linear, angular = follower.command(1.0, (0.4, 0.0, yaw))
+        linear, angular = TrajectoryFollower(states, 5.0, kind).command(1.0, (0.4, 0.0, yaw))
         assert linear == 0.0 and 0.0 < abs(angular) <= ROTATE_SPEED and np.sign(angular) == -np.sign(yaw)
     linear, _ = follower.command(1.0, (0.4, 0.0, ALIGN_ANGLE - 0.05))
     assert linear > 0.0
@@ -245,3 +245,26 @@ def test_a_lagging_robot_catches_up_no_faster_than_it_can_stop_at_the_end():
     follower = TrajectoryFollower(states, 4.0, kind)
     linear, _ = follower.command(3.9, (1.7, 0.0, 0.0))
     assert 0.0 < linear <= math.sqrt(2.0 * APPROACH_DECELERATION * 0.3) + 1e-9
+
+
+def test_facing_straight_away_the_turn_keeps_its_direction_through_pose_noise():
+    """Path heading straight behind: the error's sign flips with every noisy yaw; the robot keeps
+    turning the way it started instead of alternating (and standing still)."""
+    kind = robot_type('pioneer_3dx')
+    states = polyline_trajectory(np.array([[0.0, 0.0], [2.0, 0.0]]), 5.0, 20)
+    follower = TrajectoryFollower(states, 5.0, kind)
+    turns = [follower.command(1.0, (0.4, 0.0, math.pi + noise))[1] for noise in (0.05, -0.05, 0.08, -0.02, 0.03)]
+    assert all(np.sign(w) == np.sign(turns[0]) and w != 0.0 for w in turns)
+
+
+def test_a_role_that_overshoots_and_turns_back_still_brings_the_robot_to_its_end():
+    """A re-plan that started fast runs 0.25 m past its goal and comes back (seen in pybullet). The robot,
+    stopped near the turning point after the role's time with the path's heading flipping there,
+    approaches the end point directly (backing up) instead of turning to and fro."""
+    kind = robot_type('pioneer_3dx')
+    # Along +y past the goal (0, -1.1) to (0, -0.85), then back down to it.
+    points = np.array([[0.0, -1.6], [0.0, -1.1], [0.0, -0.85], [0.0, -1.1]])
+    states = polyline_trajectory(points, 3.0, 30)
+    follower = TrajectoryFollower(states, 3.0, kind)
+    poses, _, _ = simulate(follower, (0.0, -0.85, math.pi / 2), 8.0)
+    assert math.dist(poses[-1, :2], (0.0, -1.1)) <= 0.05

@@ -24,7 +24,10 @@ Measured against the nearest path point the lateral error stays the robot's dist
 the planned path, and the lag only sets the speed (the robot catches up along the path).
 Where the path is (nearly) at rest at tau (its start, a waiting spot, its end), the clock's
 point is tracked as in Kanayama's law (tau = t); a robot still short of the end of a role
-whose time is over keeps following the path to it.
+whose time is over keeps following the path to it, until it is within ``REVERSE_DISTANCE`` of
+the end: then it approaches the end point directly (forward, or backward when it lies behind: a
+re-plan that started fast overshot the goal and turned back, and at the turning point the path's
+heading flipped with every pose).
 
 The command is then clamped to the robot type's limits (``max_linear_velocity``,
 ``max_angular_velocity``; the bridge clamps accelerations itself). Where the reference
@@ -54,6 +57,8 @@ ALIGN_ANGLE = math.pi / 4
 APPROACH_DECELERATION = 0.5
 #: A point at rest at most this far behind the robot [m] is approached backward (an overshoot).
 REVERSE_DISTANCE = 0.5
+#: Within this of +-pi [rad] a turn in place keeps its direction (the sign of the error is noise there).
+FLIP_MARGIN = 0.5
 #: Fastest turn in place [rad/s] (Nav2's rotate_to_heading_angular_vel): faster, a robot with a
 #: Pioneer's 3 rad/s^2 cannot stop the turn in time and swings past the heading, back and forth.
 ROTATE_SPEED = 1.8
@@ -99,6 +104,7 @@ class TrajectoryFollower:
         self.robot_type = robot_type
         self.gains = gains
         self.position_tolerance = position_tolerance
+        self._turning = 0.0          # sign of the last turn in place (0: not turning in place)
         # The role sampled densely once: positions, velocities, accelerations and arc length.
         self._times = np.linspace(0.0, self.total_time, max(2, int(math.ceil(self.total_time / PROJECTION_STEP)) + 1))
         self._positions, self._velocities, self._accelerations = interpolate(self.states, self.total_time,
@@ -131,7 +137,8 @@ class TrajectoryFollower:
         gains = self.gains
         k = self.projection(t, (x, y))
         lag = 0.0
-        if float(np.hypot(*self._velocities[k])) >= REST_SPEED:
+        near_end = t >= self.total_time and math.dist((x, y), self.states[-1, :2]) <= REVERSE_DISTANCE
+        if float(np.hypot(*self._velocities[k])) >= REST_SPEED and not near_end:
             # Follow the path from the nearest point; the role's clock only sets the speed.
             position, velocity, acceleration = self._positions[k], self._velocities[k], self._accelerations[k]
             lag = float(np.interp(min(t, self.total_time), self._times, self._arc) - self._arc[k])
@@ -154,7 +161,7 @@ class TrajectoryFollower:
                 bearing, direction = wrap_angle(bearing - math.pi), -1.0
             # Drive only while roughly facing the point (or its back to it), so the robot never swings wide.
             linear = direction * gains.k_approach * distance * max(math.cos(bearing), 0.0) ** 2
-            return self._clamp(linear, _turn_rate(gains.k_turn * bearing))
+            return self._clamp(linear, self._turn_toward(bearing))
         e_x = math.cos(yaw) * dx + math.sin(yaw) * dy
         e_y = -math.sin(yaw) * dx + math.cos(yaw) * dy
         heading = math.atan2(velocity[1], velocity[0])
@@ -163,7 +170,8 @@ class TrajectoryFollower:
         if abs(e_theta) > ALIGN_ANGLE:
             # Turn in place first: a unicycle driving while it turns that far sweeps a wide arc off
             # its path (or backs up along the wrong one) before the lateral terms catch it.
-            return self._clamp(0.0, _turn_rate(gains.k_turn * e_theta))
+            return self._clamp(0.0, self._turn_toward(e_theta))
+        self._turning = 0.0
         # Catching up, never faster than a stop at APPROACH_DECELERATION allows before the role's end (a
         # lagging robot otherwise ran past its goal); the role's own speed there is always allowed.
         to_end = max(self._arc[-1] - self._arc[k] + e_x, 0.0)
@@ -176,6 +184,14 @@ class TrajectoryFollower:
             # Saturated turning keeps the commanded curvature: slower on the same arc, not straight on.
             linear *= limit_w / abs(angular)
         return self._clamp(linear, angular)
+
+    def _turn_toward(self, angle: float) -> float:
+        """Turning rate toward a heading error ``angle``. Near +-pi the error's sign flips with every
+        noisy pose; the robot then keeps turning the way it already turns instead of standing still."""
+        if self._turning and abs(angle) > math.pi - FLIP_MARGIN:
+            angle = math.copysign(abs(angle), self._turning)
+        self._turning = math.copysign(1.0, angle) if angle else 0.0
+        return _turn_rate(self.gains.k_turn * angle)
 
     def _clamp(self, linear: float, angular: float) -> tuple[float, float]:
         limit_v = self.robot_type.max_linear_velocity
