@@ -33,6 +33,7 @@ THIRD_PARTY_KEYS = {
     'pybullet': 'python3-pybullet-pip',
     'pybullet_data': 'python3-pybullet-pip',
     'gtsam': 'python3-gtsam-pip',
+    'numba': 'python3-numba-pip',
     'rosbags': 'python3-rosbags-pip',
     'backports': 'python3-rosbags-pip',   # backports.zstd: rosbags' own dependency below Python 3.14
 }
