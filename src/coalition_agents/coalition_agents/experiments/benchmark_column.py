@@ -40,6 +40,11 @@ PREVIOUS = {
     'formed_s': {'10': [1.8, 2.8], '20': [10.0, 21.0]},
     'note': 'ranges over runs; the same session measured 1.63 s and 2.94 s for N = 10 at load 2-2.5 '
             'before the change',
+    #: the first pass of issue 14 (one team topic, columnar batches; runs/20261126-053919-bench-coalition,
+    #: load 1.5-3.6), before the collector tuning, the leader's kept cheapest coalition, per-label
+    #: candidates and lazy retry polls; side by side with those (3 pairs, load ~5.5) see the README
+    'first_pass': {'formed_s': {'10': [1.738, 1.643, 1.009, 1.159, 0.892], '20': [7.327, 9.398, 6.604, 9.261, 6.957]},
+                   'formed_s_median': {'10': 1.159, '20': 7.327}, 'load': [1.5, 3.6]},
 }
 
 
