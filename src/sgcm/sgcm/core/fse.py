@@ -47,17 +47,23 @@ class FSEResult:
     stage_game_samples: list = field(default_factory=list, repr=False)
 
 
+def planner_horizon(model: RearrangementModel, horizon: int | None, solver: str) -> int:
+    """A planner's horizon (the task's when None), after checking it and the solver's name."""
+    if solver not in SOLVERS:
+        raise ValueError(f"solver: must be one of {', '.join(SOLVERS)} (got '{solver}')")
+    horizon = model.task.horizon if horizon is None else int(horizon)
+    if horizon < 1:
+        raise ValueError(f'horizon: must be >= 1 (got {horizon})')
+    return horizon
+
+
 class FSEPlanner:
     """Computes pi_0^{A*}, pi_0^{B*} from an observed state (one rolling-horizon step)."""
 
     def __init__(self, model: RearrangementModel, horizon: int | None = None, solver: str = 'fast',
                  keep_stage_games: int = 0, count_terminal_states: bool = False):
-        if solver not in SOLVERS:
-            raise ValueError(f"solver: must be one of {', '.join(SOLVERS)} (got '{solver}')")
         self.model = model
-        self.horizon = model.task.horizon if horizon is None else int(horizon)
-        if self.horizon < 1:
-            raise ValueError(f'horizon: must be >= 1 (got {self.horizon})')
+        self.horizon = planner_horizon(model, horizon, solver)
         self.solve_stage = SOLVERS[solver]
         self.solver = solver
         # Benchmarks re-solve a sample of the very same stage games with the other method.

@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from .fse import FSEPlanner, FSEResult
+from .fse import FSEPlanner, FSEResult, planner_horizon
 from .fse_kernel import build_table, expand_level, level_games, solve_level_pure
 from .game_tables import GameTables, is_cooperative
 from .rearrangement import RearrangementModel
@@ -77,12 +77,8 @@ class CompiledFSEPlanner:
 
     def __init__(self, model: RearrangementModel, horizon: int | None = None, solver: str = 'fast',
                  count_terminal_states: bool = False, tolerance: float = DEFAULT_TOLERANCE, warm: bool = True):
-        if solver not in SOLVERS:
-            raise ValueError(f"solver: must be one of {', '.join(SOLVERS)} (got '{solver}')")
         self.model = model
-        self.horizon = model.task.horizon if horizon is None else int(horizon)
-        if self.horizon < 1:
-            raise ValueError(f'horizon: must be >= 1 (got {self.horizon})')
+        self.horizon = planner_horizon(model, horizon, solver)
         self.solver = solver
         self.solve_stage = SOLVERS[solver]
         self.tolerance = tolerance

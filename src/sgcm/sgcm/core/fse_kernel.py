@@ -71,26 +71,28 @@ def _empty_table(entries):
 
 
 @njit(cache=True)
-def table_find(table, key):
-    """The row of ``key`` in the level, NO_ROW if absent."""
+def _probe(table, key):
+    """The slot holding ``key``, or the empty slot where it would go (linear probing)."""
     mask = len(table) - 1
     i = _slot(key, mask)
-    while table[i, 1] != 0:
-        if table[i, 0] == key:
-            return np.int64(table[i, 1]) - 1
+    while table[i, 1] != 0 and table[i, 0] != key:
         i = (i + 1) & mask
-    return NO_ROW
+    return i
+
+
+@njit(cache=True)
+def table_find(table, key):
+    """The row of ``key`` in the level, NO_ROW if absent."""
+    i = _probe(table, key)
+    return np.int64(table[i, 1]) - 1 if table[i, 1] != 0 else NO_ROW
 
 
 @njit(cache=True)
 def _table_insert(table, key, row):
     """Insert ``key`` -> ``row`` unless present; returns the row already there or NO_ROW."""
-    mask = len(table) - 1
-    i = _slot(key, mask)
-    while table[i, 1] != 0:
-        if table[i, 0] == key:
-            return np.int64(table[i, 1]) - 1
-        i = (i + 1) & mask
+    i = _probe(table, key)
+    if table[i, 1] != 0:
+        return np.int64(table[i, 1]) - 1
     table[i, 0] = key
     table[i, 1] = np.uint64(row + 1)
     return NO_ROW
