@@ -64,10 +64,6 @@ FLIP_MARGIN = 0.5
 ROTATE_SPEED = 1.8
 
 
-def _turn_rate(angular: float) -> float:
-    return min(max(angular, -ROTATE_SPEED), ROTATE_SPEED)
-
-
 @dataclass(frozen=True)
 class TrackingGains:
     """Gains of the tracking law: k_x (1/s), k_y (1/m^2), k_theta (1/m)."""
@@ -191,7 +187,7 @@ class TrajectoryFollower:
         if self._turning and abs(angle) > math.pi - FLIP_MARGIN:
             angle = math.copysign(abs(angle), self._turning)
         self._turning = math.copysign(1.0, angle) if angle else 0.0
-        return _turn_rate(self.gains.k_turn * angle)
+        return min(max(self.gains.k_turn * angle, -ROTATE_SPEED), ROTATE_SPEED)
 
     def _clamp(self, linear: float, angular: float) -> tuple[float, float]:
         limit_v = self.robot_type.max_linear_velocity
