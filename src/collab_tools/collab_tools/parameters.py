@@ -41,6 +41,7 @@ from rclpy.parameter import Parameter
 
 from .core.settings import KIND_WORDS, Setting, SettingsSchema, echo
 from .node_support import ConfigurationError
+from .sim_clock import guard_sim_clock
 
 _PARAMETER_TYPES = {
     'bool': ParameterType.PARAMETER_BOOL, 'integer': ParameterType.PARAMETER_INTEGER,
@@ -70,6 +71,8 @@ class NodeParameters:
         self._specs: dict[str, _Spec] = {}
         self._declaring = False
         node.add_on_set_parameters_callback(self._on_set)
+        # Every node declares its parameters here: its simulated clock is guarded here too.
+        guard_sim_clock(node)
 
     # --- declaring ---------------------------------------------------------------------------
     def declare(self, name: str, default: Any, description: str, *,

@@ -18,6 +18,7 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | what a fiducial sees: FOV/range edge rule, line of sight past boxes (core and bridge alike) | :mod:`.visibility` |
 | TF trees (lookups through a chain of stamped transforms) | :mod:`.tf_tree` |
 | scripted drive plans (the demo's driver) | :mod:`.drive_plan` |
+| messages as input: malformed-input kinds, stamp checks, the /clock filter | :mod:`.input_checks` |
 
 The experiments layer's shared parts (one signature, one results schema, sweeps, plots) are in
 :mod:`collab_tools.experiments`; the ROS adapters (parameters, names, QoS, node life cycle,
