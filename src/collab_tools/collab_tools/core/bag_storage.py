@@ -31,7 +31,7 @@ else:  # pragma: no cover - the rosbags dependency brings the backport
     from backports import zstd
 
 __all__ = ['BAG_VERSION', 'ROS_DISTRO', 'STORAGE_PRESETS', 'TYPE_HASH', 'Rosbag2Writer', 'StoragePreset',
-           'qos_profiles_text']
+           'qos_profiles_text', 'rosbag2_metadata', 'write_metadata_file']
 
 #: rosbag2 Jazzy's metadata version (rosbags writes the same layout for version 9).
 BAG_VERSION = 9
@@ -103,7 +103,7 @@ def _rosbag2_qos(q: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _rosbag2_metadata(info: dict[str, Any], ros_distro: str) -> dict[str, Any]:
+def rosbag2_metadata(info: dict[str, Any], ros_distro: str) -> dict[str, Any]:
     """rosbags' metadata mapping with rosbag2 Jazzy's key order and ``ros_distro``."""
     topics = []
     for entry in info.get('topics_with_message_count') or []:
@@ -119,6 +119,14 @@ def _rosbag2_metadata(info: dict[str, Any], ros_distro: str) -> dict[str, Any]:
     return out
 
 
+def write_metadata_file(bag: Path, metadata: dict[str, Any]) -> None:
+    """metadata.yaml of the bag directory, replaced at once (a reader never sees half of it)."""
+    text = _dump({'rosbag2_bagfile_information': metadata}) + '\n'
+    tmp = bag / 'metadata.yaml.tmp'
+    tmp.write_text(text, 'utf8')
+    tmp.replace(bag / 'metadata.yaml')
+
+
 class _Rosbag2Storage:
     """What both storages share: the serialized metadata as rosbag2 writes it."""
 
@@ -126,7 +134,7 @@ class _Rosbag2Storage:
     metadata: dict[str, Any] | None = None
 
     def _rosbag2_text(self, text: str) -> str:
-        self.metadata = _rosbag2_metadata(yaml.safe_load(text), self.ros_distro)
+        self.metadata = rosbag2_metadata(yaml.safe_load(text), self.ros_distro)
         return _dump(self.metadata)
 
 
@@ -161,12 +169,18 @@ class _McapStorage(_Rosbag2Storage, McapWriter):
     def write(self, connection: Connection, timestamp: int, data: bytes | memoryview) -> None:
         super().write(connection, timestamp, data)
         if self.chunk.bio.tell() >= self.preset.chunk_size:
-            McapWriter.close_chunk(self)
+            self.close_chunk_now()
 
     def close_chunk(self) -> None:
         # rosbags closes a chunk past 1 MiB; here the preset's chunk size decides.
         if self._finishing or self.chunk.bio.tell() >= self.preset.chunk_size:
-            super().close_chunk()
+            self.close_chunk_now()
+
+    def close_chunk_now(self) -> None:
+        super().close_chunk()
+        # Into the OS at once: a killed recorder loses at most the chunk it was filling, not the
+        # buffered tail (message indexes) of the last one it wrote.
+        self.bio.flush()
 
     def close(self, version: int, metadata: str) -> None:
         self._finishing = True
@@ -196,7 +210,11 @@ class Rosbag2Writer(Writer):
         storage = self.storage
         super().close()
         # rosbags wrote its own metadata.yaml; rewrite it with what the storage got.
-        text = _dump({'rosbag2_bagfile_information': storage.metadata}) + '\n'
-        tmp = self.metapath.with_suffix('.yaml.tmp')
-        tmp.write_text(text, 'utf8')
-        tmp.replace(self.metapath)
+        write_metadata_file(self.path, storage.metadata)
+
+    def close_pending_chunk(self) -> bool:
+        """Write the chunk being filled now, whatever its size (False: no message in it, or sqlite3)."""
+        if isinstance(self.storage, _McapStorage) and self.storage.chunk.msgs:
+            self.storage.close_chunk_now()
+            return True
+        return False

@@ -23,6 +23,7 @@ compression is the storage's, readers decompress it transparently.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Sequence
 from contextlib import suppress
 from dataclasses import dataclass
@@ -253,6 +254,7 @@ class BagWriter:
         self._types: dict[str, str] = {}
         self._counts: dict[str, int] = {}
         self._closed = False
+        self._pending_since: float | None = None  # monotonic time of the pending chunk's first message
 
     # ---- topics ------------------------------------------------------
     def add_topic(self, topic: str, type_name: str, offered_qos: Sequence[QosSpec] = (),
@@ -322,6 +324,26 @@ class BagWriter:
                 raise KeyError(f'topic {topic!r} was not added to the bag (call add_topic first)')
             self._writer.write(connection, int(timestamp_ns), bytes(data))
             self._counts[topic] += 1
+            pending = self.storage == 'mcap' and bool(self._writer.storage.chunk.msgs)
+            if not pending:
+                self._pending_since = None  # this message closed the chunk (size reached)
+            elif self._pending_since is None:
+                self._pending_since = time.monotonic()
+
+    def flush(self, max_age_s: float = 0.0) -> bool:
+        """Write the chunk being filled if its first message is ``max_age_s`` old or older.
+
+        Chunks close at the preset's size; a recorder calls this periodically so that a slow
+        topic's messages reach the file too: a killed recorder then loses at most the chunk it
+        was filling (:mod:`.bag_repair` makes the rest readable). True if a chunk was written.
+        """
+        with self._lock:
+            if self._closed or self._pending_since is None:
+                return False
+            if time.monotonic() - self._pending_since < max_age_s:
+                return False
+            self._pending_since = None
+            return self._writer.close_pending_chunk()
 
     def counts(self) -> dict[str, int]:
         """Messages written so far per topic."""
