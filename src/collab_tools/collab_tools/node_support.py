@@ -4,7 +4,9 @@ A node class raises :class:`ConfigurationError` (or the error types passed to :f
 from its constructor for a bad parameter (exit code 2 with the message), or from a callback for a
 setting it can only check later (the same exit code 2). A node that can
 end on its own sets ``exit_when_done`` and a ``finished`` Future, so an orchestration
-script can wait for it; others spin until shutdown.
+script can wait for it; others spin until shutdown. A node that ended without doing its task
+(a leader's perception fault) sets ``exit_code`` (:data:`EXIT_TASK_FAILED`) before finishing.
+Malformed messages never end a node: see :mod:`collab_tools.input_guard`.
 """
 
 import signal
@@ -16,7 +18,10 @@ from rclpy.task import Future
 
 from .core.errors import ConfigurationError  # re-exported: nodes raise it
 
-__all__ = ['ConfigurationError', 'run', 'stop_signal_handling']
+__all__ = ['ConfigurationError', 'EXIT_TASK_FAILED', 'run', 'stop_signal_handling']
+
+#: Exit code of a node that ended without doing its task (an orchestration session: a failed node).
+EXIT_TASK_FAILED = 1
 
 
 def stop_signal_handling() -> None:
@@ -47,6 +52,7 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
             rclpy.spin_until_future_complete(node, node.finished)
             # Give the last messages a moment to reach late subscribers (recorders).
             rclpy.spin_until_future_complete(node, Future(), timeout_sec=0.5)
+            code = int(getattr(node, 'exit_code', 0) or 0)
         else:
             rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -28,6 +28,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from .core.camera_geometry import TopViewGeometry
 from .core.image_codec import decode_labels, decode_rgb
 from .images import image_array
+from .input_guard import InputGuard
 from .qos import LATCHED, SENSOR_IN
 
 
@@ -54,19 +55,24 @@ class TopCamera:
         # camera: the camera's namespace, absolute (a team-shared sensor: names.RobotNode.team('top_camera'))
         ns = '/' + camera.strip('/')
         # image_transport's topic names: <base topic>/<transport>, raw = the base topic itself.
+        # Through the node's input guard: an image with an invalid stamp is dropped, counted and logged
+        # once per kind, so frame_time can convert the stamps it keeps.
+        self._inputs = inputs = InputGuard.of(node)
         kind, suffix = (Image, '') if transport == 'raw' else (CompressedImage, '/compressed')
-        node.create_subscription(kind, f'{ns}/image_raw{suffix}', self._on_rgb, SENSOR_IN)
-        node.create_subscription(CameraInfo, f'{ns}/camera_info', self._on_info, SENSOR_IN)
-        node.create_subscription(PoseStamped, f'{ns}/pose', self._on_pose, LATCHED)
+        inputs.subscribe(kind, f'{ns}/image_raw{suffix}', self._on_rgb, SENSOR_IN)
+        inputs.subscribe(CameraInfo, f'{ns}/camera_info', self._on_info, SENSOR_IN)
+        inputs.subscribe(PoseStamped, f'{ns}/pose', self._on_pose, LATCHED)
         if with_labels:
-            node.create_subscription(kind, f'{ns}/labels{suffix}', self._on_labels, SENSOR_IN)
-            node.create_subscription(LabelLegend, f'{ns}/label_legend', self._on_legend, LATCHED)
+            inputs.subscribe(kind, f'{ns}/labels{suffix}', self._on_labels, SENSOR_IN)
+            inputs.subscribe(LabelLegend, f'{ns}/label_legend', self._on_legend, LATCHED)
 
     def _on_rgb(self, msg: Image | CompressedImage) -> None:
+        self._inputs.stamp(msg.header.stamp)     # MalformedInput: dropped by the guard
         self._rgb = msg
         self._notify()
 
     def _on_labels(self, msg: Image | CompressedImage) -> None:
+        self._inputs.stamp(msg.header.stamp)
         self._labels = msg
         self._notify()
 

@@ -29,6 +29,7 @@ from rclpy.time import Time
 from collab_tools.core.camera_geometry import TopViewGeometry
 from collab_tools.core.settings import Setting, SettingsSchema
 from collab_tools.images import image_array
+from collab_tools.input_guard import InputGuard
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import LATCHED
 from collab_tools.top_camera import TopCamera
@@ -52,15 +53,18 @@ class OnDemandFrames:
 
     def __init__(self, node: Node, ns: str):
         self.node = node
-        self.client = node.create_client(GetCameraFrame, f'{ns}/get_frame')
+        self.inputs = InputGuard.of(node)
+        self.service = f'{ns}/get_frame'
+        self.client = node.create_client(GetCameraFrame, self.service)
         self.response: GetCameraFrame.Response | None = None
+        self._stamp: Time | None = None     # the response's image stamp, checked
         self.refused: str | None = None     # the camera's reason, once it refuses
         self.requests = 0
         self._pending = None
         self._geometry: tuple[object, object, TopViewGeometry] | None = None
 
     def frame_time(self) -> Time | None:
-        return None if self.response is None else Time.from_msg(self.response.image.header.stamp)
+        return None if self.response is None else self._stamp
 
     def request(self) -> None:
         """Ask for a frame of the current state, unless one is on its way (or the service is not up)."""
@@ -78,7 +82,12 @@ class OnDemandFrames:
         if not response.success:
             self.refused = response.message or 'refused'
             return
-        self.response = response
+        try:   # an answer with an invalid stamp is no frame (dropped, counted, logged once per kind)
+            stamp = self.inputs.stamp(response.image.header.stamp, 'image.header.stamp')
+        except ValueError as error:
+            self.inputs.reject(self.service, error)
+            return
+        self.response, self._stamp = response, stamp
 
     def geometry(self, pose: PoseStamped | None) -> TopViewGeometry:
         if self.response is None or pose is None:
@@ -109,8 +118,9 @@ class CameraInput:
         self.frames = OnDemandFrames(node, self.ns)
         self._pose: PoseStamped | None = None
         self._legend: dict[int, tuple[str, str]] = {}
-        node.create_subscription(PoseStamped, f'{self.ns}/pose', self._on_pose, LATCHED)
-        node.create_subscription(LabelLegend, f'{self.ns}/label_legend', self._on_legend, LATCHED)
+        inputs = InputGuard.of(node)
+        inputs.subscribe(PoseStamped, f'{self.ns}/pose', self._on_pose, LATCHED)
+        inputs.subscribe(LabelLegend, f'{self.ns}/label_legend', self._on_legend, LATCHED)
         self._streaming_since: float | None = None   # steady time a stream without service was first seen
 
     def _on_pose(self, msg: PoseStamped) -> None:

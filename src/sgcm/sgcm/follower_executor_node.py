@@ -9,8 +9,14 @@ through the arm's ``pick_and_place`` action and reports what it did on
 ``<team>/sgcm/follower_report``. The round logic is sgcm.core.follower_rounds; this node only
 turns messages, frames and action results into its events.
 
+A frame is used only when perception accepts it as evidence (sgcm.core.perception_check); else
+he looks again, and after ``perception_fault_after`` s of rejected frames he logs a perception
+fault (once per round) and keeps looking: the leader's follower timeout ends the round. Malformed
+guidance (a field, an invalid stamp) is dropped, counted and logged once per kind
+(collab_tools.input_guard).
+
 Parameters: sgcm.core.settings.FOLLOWER_SETTINGS. Dynamic: settle_time (applied to the round in
-progress). The behaviour and its deviations define the experiment's follower and stay as
+progress), perception_fault_after (at once). The behaviour and its deviations define the experiment's follower and stay as
 started (read-only).
 """
 
@@ -22,6 +28,8 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.time import Time
+from collab_tools.core.input_checks import MalformedInput, error_kind
+from collab_tools.input_guard import InputGuard
 from collab_tools.names import RobotNode
 from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
@@ -31,6 +39,7 @@ from sgcm_interfaces.msg import FollowerReport, Guidance
 from .camera_input import CameraInput
 from .core.follower_behaviour import Follower, FollowerChoice
 from .core.follower_rounds import FollowerPhase, FollowerRounds, HeardGuidance
+from .core.perception_check import PerceptionCheck
 from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
 from .core.settings import FOLLOWER_SETTINGS, FollowerExecutorSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, action_from_msg, counts_from_msg, move_msg, \
@@ -42,18 +51,23 @@ class FollowerExecutor(Node):
         super().__init__(node_name, **node_options)
         params = self.params = NodeParameters(self)
         self.names = RobotNode(self, params)
-        values = params.declare_schema(FOLLOWER_SETTINGS, on_change={'settle_time': self._set_settle_time})
+        values = params.declare_schema(FOLLOWER_SETTINGS, on_change={
+            'settle_time': self._set_settle_time, 'perception_fault_after': self._set_perception_fault_after})
         settings = self.settings = FollowerExecutorSettings.from_values(values)
         self.task = settings.task
         self.exit_when_done = settings.exit_when_done
         self.model = RearrangementModel(self.task)
         self.rounds = FollowerRounds(Follower(self.model, settings.follower, seed=settings.seed), self)
         self._set_settle_time(settings.settle_time)
+        self.perception = PerceptionCheck(values['perception_fault_after'])
+        self.look_again = None           # sim time of the next look while frames are rejected
+        self.fault_round = None          # the round a perception fault was logged for
         self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
                                   params=params)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.report_pub = self.create_publisher(FollowerReport, self.names.team(FOLLOWER_REPORT), RELIABLE)
-        self.create_subscription(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)
+        self.inputs = InputGuard.of(self)
+        self.inputs.subscribe(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)
         self.finished = Future()
         self.estimate = None      # the camera estimate of the round being executed
         self.create_timer(0.05, self._tick)
@@ -64,6 +78,9 @@ class FollowerExecutor(Node):
 
     def _set_settle_time(self, value: float) -> None:
         self.settle = Duration(seconds=float(value))
+
+    def _set_perception_fault_after(self, value: float) -> None:
+        self.perception.fault_after = float(value)
 
     # --- events for the core's rounds ------------------------------------------------
     def _on_guidance(self, msg: Guidance) -> None:
@@ -76,22 +93,24 @@ class FollowerExecutor(Node):
         if msg.round <= self.rounds.last_round:
             return  # already handled (duplicate)
         try:
+            stamp = self.inputs.stamp(msg.header.stamp)
             round_state = counts_from_msg(self.task, msg.state)
             leader_action = action_from_msg(self.model, LEADER, msg.leader_move, 'leader_move')
             recommended = action_from_msg(self.model, FOLLOWER, msg.recommended_follower_move,
                                           'recommended_follower_move')
-        except ValueError as error:
-            self.get_logger().error(f'dropped malformed guidance for round {msg.round}: {error}')
-            return
+        except ValueError as error:   # counted and logged once per kind by the guard
+            raise MalformedInput(f'dropped malformed guidance for round {msg.round}: {error}',
+                                 kind=error_kind(error)) from None
         # The settling is counted from the guidance's stamp when the frame is checked, so a
         # settle_time set meanwhile applies to this round too.
-        self.rounds.guidance_heard(HeardGuidance(msg.round, Time.from_msg(msg.header.stamp), round_state,
-                                                 leader_action, recommended))
+        self.rounds.guidance_heard(HeardGuidance(msg.round, stamp, round_state, leader_action, recommended))
 
     def _tick(self) -> None:
         if self.rounds.phase is not FollowerPhase.SETTLING:
             return
         settled = self.rounds.pending.stamp + self.settle
+        if self.look_again is not None and self.look_again > settled:
+            settled = self.look_again                       # a newer frame than the one rejected
         stamp = self.camera.frame_time(not_before=settled)   # on demand: asks for a frame once settled
         if stamp is None or stamp < settled or not self.arm.server_is_ready():
             return
@@ -100,8 +119,20 @@ class FollowerExecutor(Node):
         except ValueError as error:
             self.get_logger().warn(f'cannot use the camera frame: {error}', throttle_duration_sec=5.0)
             return
-        self.estimate = estimate
         number = self.rounds.pending.round
+        verdict = self.perception.judge(estimate, len(self.camera.cube_labels), stamp.nanoseconds * 1e-9)
+        if not verdict.accepted:
+            self.look_again = Time(nanoseconds=int(verdict.retry_at * 1e9), clock_type=self.get_clock().clock_type)
+            if verdict.fault and self.fault_round != number:
+                self.fault_round = number
+                self.get_logger().error(f'round {number}: perception fault: no usable camera frame for '
+                                        f'{verdict.rejected_for:.1f} s ({verdict.reason}); still looking')
+            else:
+                self.get_logger().warn(f'camera frame rejected, not used as the table state: {verdict.reason}; '
+                                       'looking again', throttle_duration_sec=5.0)
+            return
+        self.look_again = None
+        self.estimate = estimate
         choice = self.rounds.table_seen(self.model.state_of(estimate.counts))
         self.get_logger().info(f'round {number}: {self.model.describe(FOLLOWER, choice.action)} ({choice.reason})')
 

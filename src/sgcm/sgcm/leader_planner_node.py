@@ -13,9 +13,15 @@ only turns frames, action results, reports and timers into its events. When the 
 the goal, stuck by sgcm.core.stuck_rule, or at the round limit) the node exits (exit_when_done)
 so an orchestration script can wait for it.
 
+A frame is used only when perception accepts it as evidence (sgcm.core.perception_check: every
+cube of the camera's legend seen in the grid); else the last good state stays, the camera is
+asked again, and after ``perception_fault_after`` s of rejected frames the task ends with a
+perception fault (status ``perception fault: ...``, exit code 1). Malformed reports are dropped,
+counted and logged once per kind (collab_tools.input_guard).
+
 Parameters: sgcm.core.settings.LEADER_SETTINGS. Dynamic ones (applied from the next decision
 that uses them): horizon, round_limit, follower_timeout (also to the wait in progress),
-settle_time (also to the settling in progress).
+settle_time (also to the settling in progress), perception_fault_after (at once).
 """
 
 import sys
@@ -26,8 +32,10 @@ from rclpy.action import ActionClient
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
+from rclpy.time import Time
 from collab_tools.names import RobotNode
-from collab_tools.node_support import run
+from collab_tools.input_guard import InputGuard
+from collab_tools.node_support import EXIT_TASK_FAILED, run
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
@@ -36,6 +44,7 @@ from .camera_input import CameraInput
 from .core.fse_compiled import make_planner
 from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
 from .core.leader_rounds import LeaderPhase, LeaderRounds
+from .core.perception_check import PerceptionCheck
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.settings import LEADER_SETTINGS, LeaderSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
@@ -48,7 +57,8 @@ class LeaderPlanner(Node):
         self.names = RobotNode(self, params)
         values = params.declare_schema(LEADER_SETTINGS, on_change={
             'horizon': self._set_horizon, 'follower_timeout': self._set_follower_timeout,
-            'settle_time': self._set_settle_time, 'round_limit': self._set_round_limit})
+            'settle_time': self._set_settle_time, 'round_limit': self._set_round_limit,
+            'perception_fault_after': self._set_perception_fault_after})
         settings = self.settings = LeaderSettings.from_values(values)
         self.task = settings.task
         self.strategy = settings.strategy
@@ -60,12 +70,15 @@ class LeaderPlanner(Node):
         self._set_follower_timeout(settings.follower_timeout)
         self._set_settle_time(settings.settle_time)
         self.rounds = LeaderRounds(self.leader, self)
+        self.perception = PerceptionCheck(values['perception_fault_after'])
+        self.look_again = None           # sim time of the next look while frames are rejected
+        self.exit_code = 0
 
         self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
                                   params=params)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
-        self.create_subscription(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
+        InputGuard.of(self).subscribe(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
         self.finished = Future()
         self.outcome = ''
         self.round_ended = None          # sim time the last round ended; frames count after + settle
@@ -92,6 +105,9 @@ class LeaderPlanner(Node):
     def _set_round_limit(self, value: int) -> None:
         self.leader.round_limit = value or None
 
+    def _set_perception_fault_after(self, value: float) -> None:
+        self.perception.fault_after = float(value)
+
     # --- events for the core's rounds ------------------------------------------------
     def _tick(self) -> None:
         phase = self.rounds.phase
@@ -106,6 +122,8 @@ class LeaderPlanner(Node):
 
     def _observe(self) -> None:
         settled = None if self.round_ended is None else self.round_ended + self.settle
+        if self.look_again is not None and (settled is None or self.look_again > settled):
+            settled = self.look_again                       # a newer frame than the one rejected
         stamp = self.camera.frame_time(not_before=settled)   # on demand: asks for a frame once settled
         if stamp is None or (settled is not None and stamp < settled):
             return
@@ -116,11 +134,27 @@ class LeaderPlanner(Node):
         except ValueError as error:
             self.get_logger().warn(f'cannot use the camera frame: {error}', throttle_duration_sec=5.0)
             return
-        if estimate.off_grid:
-            self.get_logger().warn('objects outside the grid are not counted: '
-                                   + ', '.join(o.name for o in estimate.off_grid))
+        verdict = self.perception.judge(estimate, len(self.camera.cube_labels), stamp.nanoseconds * 1e-9)
+        if not verdict.accepted:
+            self._rejected_frame(verdict)
+            return
+        self.look_again = None
         self.estimate = estimate
         self.rounds.table_seen(self.model.state_of(estimate.counts))
+
+    def _rejected_frame(self, verdict) -> None:
+        if verdict.fault:
+            self.get_logger().error(f'perception fault: no usable camera frame for {verdict.rejected_for:.1f} s '
+                                    f'({verdict.reason}); the task ends unfinished')
+            last = self.perception.last_good
+            state = self.model.state_of(last.counts) if last is not None else \
+                np.zeros(self.task.cells * len(self.task.colours), dtype=np.int64)
+            self.exit_code = EXIT_TASK_FAILED
+            self.rounds.perception_fault(verdict.reason, state)
+            return
+        self.get_logger().warn(f'camera frame rejected, not used as the table state: {verdict.reason}; looking '
+                               'again', throttle_duration_sec=5.0)
+        self.look_again = Time(nanoseconds=int(verdict.retry_at * 1e9), clock_type=self.get_clock().clock_type)
 
     def _on_report(self, msg: FollowerReport) -> None:
         # A late or duplicate report (for a round that is over) is ignored by the core.

@@ -42,8 +42,8 @@ def test_bad_values_name_the_parameter(task_file, schema, values, message):
 
 def test_only_the_documented_parameters_are_dynamic():
     assert {s.name for s in LEADER_SETTINGS if s.dynamic} == {'horizon', 'round_limit', 'follower_timeout',
-                                                             'settle_time'}
-    assert {s.name for s in FOLLOWER_SETTINGS if s.dynamic} == {'settle_time'}
+                                                             'settle_time', 'perception_fault_after'}
+    assert {s.name for s in FOLLOWER_SETTINGS if s.dynamic} == {'settle_time', 'perception_fault_after'}
     assert LEADER_SETTINGS['horizon'].high == MAX_HORIZON
     assert all(s.description for s in (*LEADER_SETTINGS, *FOLLOWER_SETTINGS))
 

@@ -72,6 +72,9 @@ Fig. 1 set-up: the arms across the table,       workspace_layout (Workspace, pla
 each reaching the workspace (ours: placed       and arm placement from the grid by the bridge's
 from the grid, or the task refused)             arm models; reach per cell -> ActionTable)
 Sec. V "perception is vision-based"             perception (estimate_state, classify_colour)
+Perception judges its evidence (ours: a         perception_check (evidence_problem,
+frame shows every cube of the legend in         PerceptionCheck: rejected frames, the
+the grid, or it is not used)                    perception fault)
 The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
                                                 LeaderSettings, FollowerExecutorSettings)
 Table I, Fig. 4, Fig. 5 experiments             sgcm.experiments (table1, disturbance)

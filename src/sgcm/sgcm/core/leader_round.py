@@ -39,6 +39,7 @@ class Ending(Enum):
     GOAL = 'goal reached'
     STUCK = 'stuck'
     ROUND_LIMIT = 'round limit reached'
+    PERCEPTION_FAULT = 'perception fault'    # the camera gave no evidence of the table (.perception_check)
 
 
 @dataclass(frozen=True)

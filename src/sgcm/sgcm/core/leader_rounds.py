@@ -3,11 +3,13 @@
 Phases and the events that move between them (the node turns camera frames, action results,
 follower reports and its timers into these calls):
 
-* ``OBSERVING`` -- :meth:`LeaderRounds.table_seen` with the state estimated from a settled frame:
+* ``OBSERVING`` -- :meth:`LeaderRounds.table_seen` with the state estimated from a settled frame
+  (one the node's :class:`~.perception_check.PerceptionCheck` accepted):
   the :class:`~.leader_round.LeaderRound` ends the task (goal, stuck, round limit; effect
   ``finish``, phase ``DONE``) or decides her move: an empty move is announced at once
   (``announce``, phase ``AWAITING_FOLLOWER``), a real one goes to her arm (``execute``,
-  phase ``EXECUTING``).
+  phase ``EXECUTING``). :meth:`perception_fault`: no usable frame for too long; the task ends
+  (``finish``, ``DONE``).
 * ``EXECUTING`` -- :meth:`move_done` with the arm's outcome: ``announce``, then ``AWAITING_FOLLOWER``.
 * ``AWAITING_FOLLOWER`` -- :meth:`follower_reported` for this round (late or duplicate reports are
   ignored) or :meth:`follower_timed_out`: the round is over, back to ``OBSERVING``.
@@ -21,7 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .leader_round import LeaderRound, LeaderTurn, TaskEnd
+from .leader_round import Ending, LeaderRound, LeaderTurn, TaskEnd
 from .rearrangement import EMPTY
 from .stuck_rule import MoveOutcome
 
@@ -78,6 +80,17 @@ class LeaderRounds:
             self.phase = LeaderPhase.EXECUTING
             self.port.execute(decision)
         return decision
+
+    def perception_fault(self, reason: str, last_state: np.ndarray) -> TaskEnd | None:
+        """The camera gave no evidence of the table for too long (.perception_check): the task ends
+        unfinished (ignored unless observing); ``last_state``: the last state seen, for the record."""
+        if self.phase is not LeaderPhase.OBSERVING:
+            return None
+        end = TaskEnd(Ending.PERCEPTION_FAULT, self.leader.rounds, np.asarray(last_state),
+                      f'{Ending.PERCEPTION_FAULT.value}: {reason}')
+        self.phase, self.end = LeaderPhase.DONE, end
+        self.port.finish(end)
+        return end
 
     def move_done(self, succeeded: bool) -> None:
         """Her arm finished (or refused) the move."""

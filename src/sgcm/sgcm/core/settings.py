@@ -18,6 +18,7 @@ from collab_tools.core.settings import Setting, SettingsSchema
 from .follower_behaviour import BEHAVIOURS, FollowerSettings
 from .fse_compiled import PLANNER_PATHS
 from .leader_round import STRATEGIES
+from .perception_check import FAULT_AFTER
 from .stage_game import SOLVERS
 from .task_config import MAX_HORIZON, TaskConfig, TaskConfigError, load_task
 
@@ -36,6 +37,11 @@ CAMERA = Setting('camera', 'top_camera', 'camera namespace, under the team names
 IMAGE_TRANSPORT = Setting(
     'image_transport', 'raw', "the camera's image_transport: raw (image_raw, labels) or compressed "
     '(image_raw/compressed JPEG, labels/compressed PNG: for a node on another host)', choices=IMAGE_TRANSPORTS)
+PERCEPTION_FAULT_AFTER = Setting(
+    'perception_fault_after', FAULT_AFTER, 'sim seconds of camera frames rejected in a row (a cube of the '
+    "camera's legend not seen in the grid: sgcm.core.perception_check) before a perception fault: the leader "
+    'ends the task unfinished, the follower logs it and keeps looking (applied at once)', low=0.0, low_open=True,
+    dynamic=True)
 
 LEADER_SETTINGS = SettingsSchema(
     TASK_FILE,
@@ -58,6 +64,7 @@ LEADER_SETTINGS = SettingsSchema(
     Setting('moves_can_fail', True, "the arms' moves may fail by chance (the bridge's failure_probability > 0); "
             'false: a state that comes back after rounds without chance ends the task as stuck '
             '(sgcm.core.stuck_rule; a round with both arms idle ends it either way)'),
+    PERCEPTION_FAULT_AFTER,
     Setting('exit_when_done', True, 'exit the node when the task has ended'),
 )
 
@@ -73,6 +80,7 @@ FOLLOWER_SETTINGS = SettingsSchema(
     IMAGE_TRANSPORT,
     Setting('settle_time', 0.5, 'sim seconds after the guidance before observing the table (applied to the '
             'round in progress)', low=0.0, dynamic=True),
+    PERCEPTION_FAULT_AFTER,
     Setting('exit_when_done', True, 'exit when the leader announces the end of the task'),
 )
 
