@@ -13,6 +13,15 @@ error: it is logged when found, listed again when the bag closes and in the bag'
 ``custom_data`` (``unrecorded_topics``), and the recorder then exits with code 1, which
 an orchestration session reports as a failed node (experiment exit code 3). A requested
 topic that never got a publisher is only a warning: nothing was there to record.
+
+Nothing is lost silently (core.recording_loss): per topic the recorder counts what it received,
+wrote and lost (gaps in the publishers' sequence numbers: its queue overflowed or transport
+lost them; the middleware's message_lost events; failed writes), logs every loss when the bag
+closes and puts the counts into ``custom_data`` and into ``recorder_status.yaml`` in the bag,
+rewritten every ``chunk_flush_period`` together with the pending chunk, so a killed recorder
+loses at most that period's messages and its bag is repaired with its last counts (bag_reindex).
+A topic's queue holds ``queue_seconds`` of its expected rate (``topic_rates``), at least
+``queue_depth`` messages.
 """
 
 import os
@@ -20,6 +29,7 @@ import re
 import sys
 
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
                        ReliabilityPolicy)
@@ -27,20 +37,21 @@ from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSPro
 from .core.bag_storage import ROS_DISTRO
 from .core.bag_types import build_typestore
 from .core.bag_writer import BagWriter, QosSpec
-from .core.tool_settings import RECORDER_SETTINGS
+from .core.recording_loss import STATUS_FILE, LossLedger, queue_depth, write_status
+from .core.tool_settings import RECORDER_SETTINGS, parse_topic_rates
 from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .ros_interfaces import import_interface
 
-RECORD_DEPTH = 100
 EXIT_UNRECORDED = 1
+QUEUE_DEPTH_MAX = 100_000
 
 
-def subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
+def subscription_qos(offered: list[QoSProfile], depth: int) -> QoSProfile:
     """The strongest QoS every publisher is compatible with."""
     reliable = all(p.reliability == ReliabilityPolicy.RELIABLE for p in offered)
     latched = all(p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in offered)
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH,
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
                       reliability=(ReliabilityPolicy.RELIABLE if reliable
                                    else ReliabilityPolicy.BEST_EFFORT),
                       durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
@@ -60,6 +71,14 @@ class BagRecorder(Node):
         period, preset = values['discovery_period'], values['storage_preset']
         self.topics = [self.resolve_topic_name(t) for t in topics if t]
         self.exclude = [re.compile(p) for p in exclude if p]
+        try:
+            self.rates = {self.resolve_topic_name(t): hz for t, hz in parse_topic_rates(values['topic_rates']).items()}
+        except Exception as error:  # an invalid topic name (rclpy's exception kin)
+            raise ConfigurationError(f'parameter topic_rates: {error}') from None
+        self.queue_seconds, self.queue_depth = values['queue_seconds'], values['queue_depth']
+        self.loss = LossLedger()
+        self.publisher_counts: dict[str, int] = {}
+        self.status_path = None
 
         self.type_names: set[str] = set()
         self.failures: dict[str, str] = {}
@@ -68,6 +87,10 @@ class BagRecorder(Node):
                                     ros_distro=os.environ.get('ROS_DISTRO') or ROS_DISTRO)
         except (OSError, ValueError) as error:
             raise ConfigurationError(f'parameter output: {error}') from None
+        self.status_path = self.writer.path / STATUS_FILE
+        self._written_status = None
+        self.flush_timer = self.create_timer(values['chunk_flush_period'], self._flush,
+                                             clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.subscriptions_by_topic = {}
         self.discovery_timer = None
         self._set_discovery_period(period)
@@ -98,6 +121,9 @@ class BagRecorder(Node):
         return not any(pattern.fullmatch(topic) for pattern in self.exclude)
 
     def _discover(self) -> None:
+        for topic, subscription in self.subscriptions_by_topic.items():
+            if subscription is not None:  # each publisher numbers its own messages (recording_loss)
+                self.publisher_counts[topic] = subscription.get_publisher_count()
         for topic, type_names in self.get_topic_names_and_types():
             if not self._wanted(topic) or topic in self.failures:
                 continue
@@ -133,21 +159,52 @@ class BagRecorder(Node):
                 self.type_names.add(type_name)
             self.writer.add_topic(topic, type_name, [QosSpec.from_profile(q) for q in offered],
                                   type_hash=next(iter(hashes), None))
-            subscription = self.create_subscription(
-                msg_type, topic, lambda data, topic=topic: self._write(topic, data),
-                subscription_qos(offered), raw=True)
+            self.loss.add_topic(topic)
+            self.publisher_counts[topic] = len(publishers)
+            depth = queue_depth(self.rates.get(topic, 0.0), self.queue_seconds, self.queue_depth, QUEUE_DEPTH_MAX)
+            events = SubscriptionEventCallbacks(
+                message_lost=lambda info, topic=topic: self.loss.reported_lost(topic, info.total_count))
+            try:
+                subscription = self.create_subscription(
+                    msg_type, topic, lambda data, info, topic=topic: self._write(topic, data, info),
+                    subscription_qos(offered, depth), raw=True, event_callbacks=events)
+            except UnsupportedEventTypeError:  # an rmw without message_lost: the sequence gaps still count
+                subscription = self.create_subscription(
+                    msg_type, topic, lambda data, info, topic=topic: self._write(topic, data, info),
+                    subscription_qos(offered, depth), raw=True)
         except Exception as error:  # whatever it is, the topic is missing from the bag: fail the run
             self._fail(topic, f'{type(error).__name__}: {error}')
             return
         self.subscriptions_by_topic[topic] = subscription
-        self.get_logger().info(f'recording {topic} [{type_name}]')
+        self.get_logger().info(f'recording {topic} [{type_name}] (queue depth {depth})')
 
-    def _write(self, topic: str, data: bytes) -> None:
+    def _write(self, topic: str, data: bytes, info: dict) -> None:
+        self.loss.received(topic, info.get('publication_sequence_number'), self.publisher_counts.get(topic, 1))
         try:
             self.writer.write(topic, self.get_clock().now().nanoseconds, data)
         except RuntimeError:
-            if not self.writer.closed:  # a message arriving while the bag closes is expected
-                raise
+            if self.writer.closed:  # a message arriving while the bag closes is expected
+                return
+            self.loss.write_failed(topic)
+            raise
+        except Exception:
+            self.loss.write_failed(topic)
+            raise
+        self.loss.written(topic)
+
+    def _flush(self) -> None:
+        """Put the pending chunk into the file and the counts into the status file (module docstring)."""
+        self.writer.flush(self.flush_timer.timer_period_ns / 1e9)
+        custom = self.loss.custom_data()
+        if custom != self._written_status:
+            self._write_status(custom, 'recording')
+
+    def _write_status(self, custom: dict, state: str) -> None:
+        try:
+            write_status(self.status_path, custom, state)
+            self._written_status = custom
+        except OSError as error:
+            self.get_logger().warn(f'cannot write {self.status_path}: {error}', throttle_duration_sec=30.0)
 
     def destroy_node(self):
         # Close the bag on every way out (shutdown, error), before the node goes.
@@ -159,9 +216,18 @@ class BagRecorder(Node):
             listing = '; '.join(f'{topic}: {reason}' for topic, reason in sorted(self.failures.items()))
             self.writer.set_custom_data('unrecorded_topics', listing)
             self.get_logger().error(f'{len(self.failures)} topic(s) NOT recorded: {listing}')
+        custom = self.loss.custom_data()
+        for key, value in custom.items():
+            self.writer.set_custom_data(key, value)
+        lossy = self.loss.lossy_topics()
+        if lossy:
+            self.get_logger().error(
+                f'{self.loss.total_lost} message(s) LOST (not in the bag): '
+                + ', '.join(f'{topic}: {n} of {n + self.loss.topics[topic].written}' for topic, n in lossy.items()))
         self.writer.close()
+        self._write_status(custom, 'closed')
         self.get_logger().info(
-            f'bag closed: {sum(counts.values())} messages on {len(counts)} topics')
+            f'bag closed: {sum(counts.values())} messages on {len(counts)} topics, {self.loss.total_lost} lost')
         super().destroy_node()
 
 

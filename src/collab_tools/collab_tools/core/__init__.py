@@ -12,6 +12,8 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | rosbag2 bags: writing (MCAP, metadata v9) | :mod:`.bag_writer`, :mod:`.bag_storage` (presets, chunks) |
 | rosbag2 bags: message types and definitions | :mod:`.bag_types` |
 | rosbag2 bags: reading, summaries, checks | :mod:`.bag_analysis`, :mod:`.bag_check` |
+| rosbag2 bags: repairing a killed recording (`bag_reindex`; MCAP records) | :mod:`.bag_repair`, :mod:`.mcap_records` |
+| what a recording lost (sequence gaps, queue depths) | :mod:`.recording_loss` |
 | report plots from bags | :mod:`.report_plots` |
 | images: JPEG/PNG transport, label images | :mod:`.image_codec` |
 | pinhole camera geometry (pixel <-> world) | :mod:`.camera_geometry` |

@@ -108,7 +108,7 @@ def find_bags(path: Path) -> list[Path]:
     if unfinished:
         hint = (
             f'; {len(unfinished)} director{"y" if len(unfinished) == 1 else "ies"} hold bag data but no '
-            f'{_METADATA} (recording not closed cleanly? `ros2 bag reindex` can rebuild it): '
+            f'{_METADATA} (recording not closed cleanly? `ros2 run collab_tools bag_reindex DIR` repairs it): '
             + ', '.join(str(u) for u in unfinished[:5])
         )
     raise FileNotFoundError(f'no bag found under {path} (looked for */{_METADATA}){hint}')

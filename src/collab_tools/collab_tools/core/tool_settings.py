@@ -20,6 +20,31 @@ def regex_problem(patterns: list[str]) -> str | None:
     return None
 
 
+def parse_topic_rates(entries: list[str]) -> dict[str, float]:
+    """``['/clock=500', 'cmd_vel=20']`` -> {topic: Hz}; '' entries are skipped; ValueError naming the entry."""
+    rates = {}
+    for entry in entries:
+        if not entry:
+            continue
+        topic, sep, rate = entry.rpartition('=')
+        try:
+            value = float(rate)
+        except ValueError:
+            value = float('nan')
+        if not sep or not topic or not 0.0 < value <= 1e6:
+            raise ValueError(f"{entry!r} is not 'TOPIC=HZ' with 0 < HZ <= 1e6")
+        rates[topic] = value
+    return rates
+
+
+def rates_problem(entries: list[str]) -> str | None:
+    try:
+        parse_topic_rates(entries)
+    except ValueError as error:
+        return str(error)
+    return None
+
+
 RECORDER_SETTINGS = SettingsSchema(
     Setting('output', '', 'directory of the new bag (must not exist yet)', required=True),
     Setting('topics', [''], "topics to record; a relative name is resolved in this node's namespace; "
@@ -30,6 +55,16 @@ RECORDER_SETTINGS = SettingsSchema(
     Setting('storage_preset', 'none', "MCAP chunk compression, as rosbag2's storage_preset_profile: none and "
             'fastwrite = uncompressed 768 KiB chunks, zstd_fast = zstd level -5, zstd_small = zstd level 19 '
             'in 4 MiB chunks', choices=tuple(STORAGE_PRESETS)),
+    Setting('topic_rates', [''], "expected rates of the fast topics, 'TOPIC=HZ' (wall clock; a relative "
+            'TOPIC is resolved like topics): the subscription queue holds queue_seconds of them',
+            check=rates_problem),
+    Setting('queue_seconds', 2.0, "seconds of a topic's expected rate its subscription queue holds",
+            low=0.1, high=60.0),
+    Setting('queue_depth', 100, 'subscription queue depth of a topic with no expected rate (and the least '
+            'any topic gets)', low=1, high=100000),
+    Setting('chunk_flush_period', 1.0, 'seconds (wall clock) after which the chunk being filled is written '
+            'even if not full: a killed recorder loses at most that much (bag_reindex repairs the rest)',
+            low=0.05, high=600.0),
 )
 
 DRIVER_SETTINGS = SettingsSchema(
