@@ -24,7 +24,7 @@ def test_the_options_are_listed():
     flags = {name: {o.flag for o in experiments[name].options} for name in ('roles-table3', 'roles-table4',
                                                                            'roles-formation')}
     for table in ('roles-table3', 'roles-table4'):
-        assert {'--only', '--config', '--maps', '--map-image', '--resolution', '--origin'} <= flags[table]
+        assert {'--only', '--maps', '--map-image', '--resolution', '--origin'} <= flags[table]   # --config: common
     assert {'--settings', '--map', '--stop-player'} <= flags['roles-formation']
 
 

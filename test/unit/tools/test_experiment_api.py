@@ -73,7 +73,8 @@ def test_options_become_argparse_flags():
 def test_sweep_selects_and_reports_progress():
     lines = []
     rows = sweep('t', [1, 2, 3], lambda x: x * x, log=lines.append, describe=lambda r: f'= {r}')
-    assert rows == [1, 4, 9] and lines[1].startswith('[t] 2/3 2: = 4 (')
+    assert rows == [1, 4, 9] and lines[1].startswith('[t 2/3] 2: = 4 (')
+    assert lines[1].endswith(' s]') and 'elapsed' in lines[1] and 'ETA' in lines[1] and 'ETA' not in lines[2]
     assert select(['a', 'b'], ['b'], str, 'case') == ['b']
     with pytest.raises(ValueError, match='unknown case c'):
         select(['a', 'b'], ['c'], str, 'case')

@@ -31,25 +31,27 @@ PAPER = 'IQ-ASyMTRe (iq_asymtre_coalitions)'
 EXPERIMENTS = (
     Experiment('coalition-table3', f'{PAPER}, Sec. V-A-1, Table III',
                'potential solutions for F_G(local) vs the paper (Table III)',
-               'coalition_agents.experiments.table3'),
+               'coalition_agents.experiments.table3', config_file='coalitions/costs.yaml'),
     Experiment('coalition-fig7', f'{PAPER}, Sec. V-A-2, Fig. 7 and Table V',
                'possible vs executable coalitions, three clusters (Fig. 7, Table V)',
                'coalition_agents.experiments.fig7',
                (Option('--mode', 'core = geometric sensing, the team search in one process; sim = schema_agent '
                                  'nodes on the bridge, recorded', choices=('core', 'sim'), default='core'),
                 Option('--loss', '--mode sim: message loss probability on the agent channel', type=float,
-                       default=0.0),
+                       default=0.0, only_when=('mode', ('sim',))),
                 Option('--scenario', 'scenario file: robots with poses, initiators, task, obstacles (boxes, map) '
                                      '(default config/coalitions/scenarios/fig7.yaml)'),
                 Option('--team', 'team capability file (robot types with their sensors\' fov_deg/range_m); '
-                                 'default: the scenario\'s team'))),
+                                 'default: the scenario\'s team')),
+               config_file='coalitions/scenarios/fig7.yaml', config_option='scenario', seeded=('mode', ('sim',))),
     Experiment('coalition-fig9', f'{PAPER}, Sec. V-A-4, Fig. 9',
                'column of robots: time to find the coalition, messages (Fig. 9)',
                'coalition_agents.experiments.fig9',
                (Option('--robots', 'column sizes to run (default: the column file\'s)',
                        type=int, nargs='+', metavar='N'),
                 Option('--column', 'column file: sizes, spacing, fiducial, link, times '
-                                   '(default config/coalitions/scenarios/fig9_column.yaml)'))),
+                                   '(default config/coalitions/scenarios/fig9_column.yaml)')),
+               config_file='coalitions/scenarios/fig9_column.yaml', config_option='column'),
     Experiment('coalition-boxpush', f'{PAPER}, Sec. V-A-5, Fig. 10/11',
                'box pushing + navigation with executable coalitions, message loss 0 and 0.2 (sim)',
                'coalition_agents.experiments.boxpush',
@@ -59,7 +61,8 @@ EXPERIMENTS = (
                                      'experiment\'s)'),
                 Option('--team', 'team capability file (default: the experiment\'s capability_file)'),
                 Option('--agents', 'the agents\' shared ROS 2 parameter file (default '
-                                   'config/coalitions/boxpush_agents.yaml)'))),
+                                   'config/coalitions/boxpush_agents.yaml)')),
+               config_file='experiments/coalition_boxpush.yaml', config_option='experiment', seeded=True),
 )
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -26,6 +27,8 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import ConfigurationError
+from .checkpoint import Checkpoint
+from .sweep import Steps
 
 SCHEMA = 'collab-experiment/1'
 #: Keys the schema owns; an experiment's data may not use them.
@@ -36,7 +39,12 @@ Log = Callable[[str], None]
 
 @dataclass(frozen=True)
 class Option:
-    """A command-line option of one experiment (argparse ``add_argument`` keywords)."""
+    """A command-line option of one experiment (argparse ``add_argument`` keywords).
+
+    only_when: (dest, values): the option means something only when option ``dest`` has one of
+    ``values`` (``--loss`` only with ``--mode sim``); given otherwise, the command line refuses it
+    instead of ignoring it (:func:`inapplicable_options`).
+    """
     flag: str
     help: str
     type: Callable[[str], Any] | None = None
@@ -45,6 +53,7 @@ class Option:
     nargs: str | int | None = None
     metavar: str | None = None
     action: str | None = None
+    only_when: tuple[str, tuple[Any, ...]] | None = None
 
     @property
     def dest(self) -> str:
@@ -60,6 +69,20 @@ class Option:
         parser.add_argument(self.flag, **keywords)
 
 
+def inapplicable_options(options: Sequence[Option], values: Mapping[str, Any]) -> list[str]:
+    """Messages for the options given a value (not their default) that their ``only_when`` rules out."""
+    problems = []
+    for option in options:
+        if option.only_when is None or values.get(option.dest, option.default) == option.default:
+            continue
+        dest, allowed = option.only_when
+        if values.get(dest) not in allowed:
+            flag = '--' + dest.replace('_', '-')
+            problems.append(f"{option.flag}: only with {flag} {' or '.join(map(str, allowed))} "
+                            f'(got {flag} {values.get(dest)})')
+    return problems
+
+
 @dataclass(frozen=True)
 class Experiment:
     """What ``scripts/experiment`` needs to list, parse and run one experiment.
@@ -67,6 +90,11 @@ class Experiment:
     name: the command (``sgcm-table1``); paper: the reference (paper, table or figure);
     summary: one line for the help; module: where ``run`` lives (imported only when it runs,
     so listing experiments stays fast); options: the experiment's own flags.
+    config_file: its main input file, relative to config/ -- what ``--config FILE`` replaces and
+    ``--set key=value`` edits (None: ``--config`` takes a directory only, ``--set`` is refused);
+    config_option: the experiment's own option naming that file (``--column``), exclusive with both.
+    seeded: whether ``--seed`` means anything to it: True, False (no ``--seed`` option) or
+    (dest, values) like :attr:`Option.only_when` (``--seed`` only in ``--mode sim``).
     """
     name: str
     paper: str
@@ -74,6 +102,9 @@ class Experiment:
     module: str
     options: tuple[Option, ...] = ()
     function: str = 'run'
+    config_file: str | None = None
+    config_option: str | None = None
+    seeded: bool | tuple[str, tuple[Any, ...]] = False
 
     def runner(self) -> Callable[['ExperimentRequest'], 'ExperimentResult']:
         return getattr(import_module(self.module), self.function)
@@ -81,16 +112,29 @@ class Experiment:
 
 @dataclass(frozen=True)
 class ExperimentRequest:
-    """The inputs of one run: where configuration lives, where results go, the seed, the options."""
+    """The inputs of one run: where configuration lives, where results go, the seed, the options.
+
+    inputs: ``--config``/``--set`` as given (recorded in results.json's options); checkpoint: where
+    finished steps are kept (None: nowhere, e.g. a test's or a benchmark's run); on_step: called with
+    each finished step's key once it is saved (a test interrupts a run there).
+    """
     config_dir: Path
     run_dir: Path
     seed: int = 0
     options: Mapping[str, Any] = field(default_factory=dict)
     log: Log = print
+    inputs: Mapping[str, Any] = field(default_factory=dict)
+    checkpoint: Checkpoint | None = None
+    on_step: Callable[[str], None] | None = None
 
     def option(self, name: str, default: Any = None) -> Any:
         value = self.options.get(name)
         return default if value is None else value
+
+    def progress(self, label: str, total: int) -> Steps:
+        """The shared loop helper: a progress bar or lines with elapsed time and ETA, every finished step
+        checkpointed, restored steps skipped (see :class:`~.sweep.Steps`)."""
+        return Steps(label, total, checkpoint=self.checkpoint, log=self.log, on_step=self.on_step)
 
 
 @dataclass
@@ -134,7 +178,7 @@ def results_document(experiment: Experiment, request: ExperimentRequest, result:
     acceptance = {'passed': bool(result.passed), **{k: v for k, v in result.acceptance.items() if k != 'passed'}}
     document = {'schema': SCHEMA, 'experiment': experiment.name, 'paper': experiment.paper,
                 'passed': bool(result.passed), 'outcome': result.outcome,
-                'options': dict(request.options), 'seed': request.seed, 'wall_s': round(wall_s, 3),
+                'options': {**request.options, **request.inputs}, 'seed': request.seed, 'wall_s': round(wall_s, 3),
                 'acceptance': acceptance}
     document.update(result.data)
     return _json_safe(document)
@@ -147,12 +191,20 @@ def write_results(experiment: Experiment, request: ExperimentRequest, result: Ex
     return path
 
 
-def run_experiment(experiment: Experiment, request: ExperimentRequest) -> ExperimentResult:
+def run_experiment(experiment: Experiment, request: ExperimentRequest,
+                   remove_on_bad_input: bool = False) -> ExperimentResult:
     """Run ``experiment`` and write its results.json; ConfigurationError (or ValueError) for bad input
-    propagates before anything is written."""
-    Path(request.run_dir).mkdir(parents=True, exist_ok=True)
+    propagates before anything is written. ``remove_on_bad_input``: the caller made the run directory for
+    this run; bad input found before any step finished removes it again (a refused run leaves nothing)."""
+    run_dir = Path(request.run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
     start = time.monotonic()
-    result = experiment.runner()(request)
+    try:
+        result = experiment.runner()(request)
+    except (ConfigurationError, ValueError):
+        if remove_on_bad_input and (request.checkpoint is None or request.checkpoint.count() == 0):
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
     if not isinstance(result, ExperimentResult):
         raise TypeError(f'{experiment.module}.{experiment.function} returned {type(result).__name__}, '
                         'not an ExperimentResult')

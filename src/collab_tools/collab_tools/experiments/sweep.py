@@ -1,25 +1,82 @@
-"""Running one function over a list of cases with a progress line per case."""
+"""An experiment's loop over its steps: progress with elapsed time and ETA, each finished step saved at once
+(checkpoint) and skipped when the run is resumed; :func:`sweep` runs one function over a list of cases that way."""
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any, TypeVar
 
+from .checkpoint import Checkpoint
+from .progress import Log, Progress
+
 Case = TypeVar('Case')
 Row = TypeVar('Row')
 
 
-def sweep(label: str, cases: Sequence[Case], run_one: Callable[[Case], Row], log: Callable[[str], None] = print,
-          name: Callable[[Case], str] = str, describe: Callable[[Row], str] | None = None) -> list[Row]:
-    """``[run_one(c) for c in cases]``, logging ``[label] i/n <name> ... <describe(row)> (t s)`` as each ends."""
+class Steps:
+    """The ``total`` steps of one loop (``label``), each named by a key unique in the loop.
+
+    A step restored from the checkpoint (``has``/``value``) is not run again; ``finish`` saves a step's
+    JSON-able value before it reports progress and calls ``on_step`` (a test's interruption hook), so
+    an interruption never loses a finished step. Use it as a context manager (closes the bar).
+    """
+
+    def __init__(self, label: str, total: int, checkpoint: Checkpoint | None = None, log: Log = print,
+                 on_step: Callable[[str], None] | None = None, bar: bool | None = None):
+        self.label = label
+        self.checkpoint = checkpoint
+        self.on_step = on_step
+        self.restored = checkpoint.load(label) if checkpoint is not None else {}
+        self.progress = Progress(label, total, log, done=len(self.restored), bar=bar)
+        if self.restored:
+            self.progress.note(f'[{label}] resumed: {len(self.restored)} of {total} steps restored from '
+                               f'{checkpoint.directory}')
+
+    def has(self, key: str) -> bool:
+        return str(key) in self.restored
+
+    def value(self, key: str) -> Any:
+        return self.restored[str(key)]
+
+    def finish(self, key: str, value: Any, text: str) -> None:
+        """Step ``key`` gave ``value``: saved first, then reported."""
+        if self.checkpoint is not None:
+            self.checkpoint.save(self.label, key, value)
+        self.progress.advance(text)
+        if self.on_step is not None:
+            self.on_step(str(key))
+
+    def close(self) -> None:
+        self.progress.close()
+
+    def __enter__(self) -> 'Steps':
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self.close()
+
+
+def sweep(label: str, cases: Sequence[Case], run_one: Callable[[Case], Row], log: Log = print,
+          name: Callable[[Case], str] = str, describe: Callable[[Row], str] | None = None, *, request=None,
+          encode: Callable[[Row], Any] = lambda row: row, decode: Callable[[Any], Row] = lambda value: value
+          ) -> list[Row]:
+    """``[run_one(c) for c in cases]`` with a progress line per case (``[label i/n] <name>: <describe(row)>
+    (t s)``). Given the run's ``request`` (an ExperimentRequest), each row is checkpointed under its case's
+    name (``encode``: a JSON-able form, ``decode``: back) and a resumed run restores it instead."""
     rows = []
-    total = len(cases)
-    for index, case in enumerate(cases, 1):
-        start = time.monotonic()
-        row = run_one(case)
-        rows.append(row)
-        detail = f' {describe(row)}' if describe is not None else ''
-        log(f'[{label}] {index}/{total} {name(case)}:{detail} ({time.monotonic() - start:.1f} s)')
+    steps = (request.progress(label, len(cases)) if request is not None
+             else Steps(label, len(cases), log=log, bar=False))
+    with steps:
+        for case in cases:
+            key = name(case)
+            if steps.has(key):
+                rows.append(decode(steps.value(key)))
+                continue
+            start = time.monotonic()
+            row = run_one(case)
+            rows.append(row)
+            detail = f' {describe(row)}' if describe is not None else ''
+            steps.finish(key, encode(row), f'{key}:{detail} ({time.monotonic() - start:.1f} s)')
     return rows
 
 

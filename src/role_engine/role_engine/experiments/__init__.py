@@ -11,9 +11,10 @@ roles-collab   Sec. V-A-3/4, Fig. 11: task- vs role-based collaboration  :mod:`.
 roles-formation Sec. V-B, Figs. 15-16: the diamond formation in simulation :mod:`.formation`
 ============== ======================================================== ==========================
 
-Inputs from the command line: ``roles-table3/4 [--config FILE] [--maps YAML ...] [--map-image PNG
---resolution M [--origin X Y [YAW]]] [--only NAME ...]``; ``roles-formation [--settings FILE]
-[--map NAV2_YAML]`` (:mod:`.formation_inputs`). Maps are Nav2 map YAMLs (core.environment).
+Inputs from the command line (besides scripts/experiment's ``--config``/``--set``): ``roles-table3/4
+[--maps YAML ...] [--map-image PNG --resolution M [--origin X Y [YAW]]] [--only NAME ...]``;
+``roles-formation [--settings FILE] [--map NAV2_YAML]`` (:mod:`.formation_inputs`). Maps are Nav2 map YAMLs
+(core.environment).
 
 Shared pieces: :mod:`.config` (config/roles/experiments.yaml and the table inputs), :mod:`.problems` (the seeded
 problems), :mod:`.gp_sweep` (the environments x problems x sigma_obs sweep and its measures),
@@ -34,7 +35,6 @@ def _only(what: str) -> Option:
 
 #: The table experiments' inputs (experiments/config.py table_config): settings file, map list or map image.
 TABLE_INPUTS = (
-    Option('--config', 'the experiments settings file (default config/roles/experiments.yaml)', metavar='FILE'),
     Option('--maps', 'Nav2 map YAMLs that replace the settings file\'s environments (named by file stem)',
            nargs='+', metavar='YAML'),
     Option('--map-image', 'one occupancy image as the only environment (white free, black occupied)',
@@ -47,15 +47,18 @@ TABLE_INPUTS = (
 
 EXPERIMENTS = (
     Experiment('roles-table3', f'{PAPER}, Table III', 'E-Map vs straight-line initialisation of GP inference',
-               'role_engine.experiments.table3', options=(_only('environments'), *TABLE_INPUTS)),
+               'role_engine.experiments.table3', options=(_only('environments'), *TABLE_INPUTS),
+               config_file='roles/experiments.yaml'),
     Experiment('roles-table4', f'{PAPER}, Table IV', 'GRA vs nearest-neighbour association, small and large robots',
-               'role_engine.experiments.table4', options=(_only('environments'), *TABLE_INPUTS)),
+               'role_engine.experiments.table4', options=(_only('environments'), *TABLE_INPUTS),
+               config_file='roles/experiments.yaml'),
     Experiment('roles-collab', f'{PAPER}, Sec. V-A-3 and V-A-4 (Fig. 11)',
                'task-based vs role-based collaboration and the narrow-hallway swap (core-level simulation)',
-               'role_engine.experiments.collab', options=(_only('scenarios'),)),
+               'role_engine.experiments.collab', options=(_only('scenarios'),), config_file='roles/collab.yaml'),
     Experiment('roles-formation', f'{PAPER}, Sec. V-B (Figs. 15-16)',
                'four robots of two types form a diamond in simulation through the nodes, recorded',
-               'role_engine.experiments.formation',
+               'role_engine.experiments.formation', config_file='roles/formation_demo.yaml',
+               config_option='settings',
                options=(Option('--settings', 'the role nodes\' settings file; its scenario is the team (default '
                                'config/roles/formation_demo.yaml)', metavar='FILE'),
                         Option('--map', 'a Nav2 map YAML: the simulated obstacles (replaces the scenario\'s)',

@@ -43,6 +43,8 @@ from typing import Any, Callable, Protocol
 
 import numpy as np
 
+from collab_tools.experiments.sweep import Steps
+
 from ..core.assignment import AssignmentResult
 from ..core.environment import Environment, RobotEnvironment, load_map_file
 from ..core.gp_planner import GPPlanner, GPPlannerConfig, GPPlanResult
@@ -262,34 +264,50 @@ class SweepOutcome:
 
 
 def sweep_tables(label: str, table: TableMethods, config: ExperimentConfig, settings: TableSettings, log: Log,
-                 describe_extra: Callable[[Problem], dict] = lambda problem: {}) -> SweepOutcome:
+                 describe_extra: Callable[[Problem], dict] = lambda problem: {},
+                 steps: Callable[[str, int], Steps] | None = None) -> SweepOutcome:
     """Every environment x problem x sigma_obs of ``settings``: ``table`` negotiates each problem once and
-    solves it at every sigma_obs; one progress line per step."""
+    solves it at every sigma_obs; one progress line per step.
+
+    ``steps``: the run's loop helper (``ExperimentRequest.progress``): each finished step is checkpointed
+    and a resumed run restores it instead of solving it again -- except the plotted example of each
+    environment, solved again for its figure (its restored numbers are the ones kept)."""
     count = settings.problems_per_environment
-    steps = len(config.environments) * count * len(config.sigma_obs)
+    total = len(config.environments) * count * len(config.sigma_obs)
     tally = Tally(table.methods, config.environments, config.sigma_obs)
     problems, examples = [], {}
     started = time.perf_counter()
-    step = 0
-    for env_index, env_name in enumerate(config.environments):
-        environment = load_map_file(config.map_file(env_name))
-        example = env_index % count     # the plotted problem; varies the robot size between panels
-        for p in range(count):
-            problem = draw_problem(environment, env_index, p, settings)
-            negotiated = table.negotiate(problem, environment, config)
-            detail = {**problem.describe(), **describe_extra(problem), 'runs': {}}
-            for sigma in config.sigma_obs:
-                step += 1
-                began = time.perf_counter()
-                run, measures, kept = table.solve(negotiated, config, sigma)
-                for method in table.methods:
-                    tally.add(env_name, sigma, method, measures[method])
-                detail['runs'][sigma_key(sigma)] = run
-                if p == example and math.isclose(sigma, config.plot_sigma):
-                    examples[env_name] = (environment, problem, kept)
-                log(f'[{label} {step}/{steps}] {env_name} problem {p + 1}/{count} ({table.describe(problem)}) '
-                    f'sigma_obs={sigma:g}: ' + '; '.join(_run_text(m, measures[m], table.second)
-                                                         for m in table.methods)
-                    + f' ({time.perf_counter() - began:.1f} s)')
-            problems.append(detail)
+    with (steps or (lambda name, n: Steps(name, n, log=log, bar=False)))(label, total) as progress:
+        for env_index, env_name in enumerate(config.environments):
+            environment = load_map_file(config.map_file(env_name))
+            example = env_index % count     # the plotted problem; varies the robot size between panels
+            for p in range(count):
+                problem = draw_problem(environment, env_index, p, settings)
+                negotiated = None           # negotiated only when a step of this problem has to run
+                detail = {**problem.describe(), **describe_extra(problem), 'runs': {}}
+                for sigma in config.sigma_obs:
+                    key = f'{env_name}|{p}|{sigma_key(sigma)}'
+                    plotted = p == example and math.isclose(sigma, config.plot_sigma)
+                    restored = progress.has(key)
+                    if restored and not plotted:
+                        run, measures = progress.value(key)['run'], progress.value(key)['measures']
+                    else:
+                        if negotiated is None:
+                            negotiated = table.negotiate(problem, environment, config)
+                        began = time.perf_counter()
+                        run, measures, kept = table.solve(negotiated, config, sigma)
+                        if plotted:
+                            examples[env_name] = (environment, problem, kept)
+                        if restored:
+                            run, measures = progress.value(key)['run'], progress.value(key)['measures']
+                        else:
+                            progress.finish(key, {'run': run, 'measures': measures},
+                                            f'{env_name} problem {p + 1}/{count} ({table.describe(problem)}) '
+                                            f'sigma_obs={sigma:g}: ' + '; '.join(
+                                                _run_text(m, measures[m], table.second) for m in table.methods)
+                                            + f' ({time.perf_counter() - began:.1f} s)')
+                    for method in table.methods:
+                        tally.add(env_name, sigma, method, measures[method])
+                    detail['runs'][sigma_key(sigma)] = run
+                problems.append(detail)
     return SweepOutcome(tally, problems, examples, time.perf_counter() - started)

@@ -58,14 +58,15 @@ class Initialisations:
 
 
 def run(request: ExperimentRequest) -> ExperimentResult:
-    return run_table3(request_config(request), request.run_dir, request.log)
+    return run_table3(request_config(request), request.run_dir, request.log, steps=request.progress)
 
 
-def run_table3(config: ExperimentConfig, run_dir, log: Log = print) -> ExperimentResult:
+def run_table3(config: ExperimentConfig, run_dir, log: Log = print, steps=None) -> ExperimentResult:
     run_dir = Path(run_dir)
     settings = config.table3
     outcome = sweep_tables('roles-table3', Initialisations(), config, settings, log,
-                           describe_extra=lambda problem: {'robot_radius': problem.agents[0].robot_type.radius})
+                           describe_extra=lambda problem: {'robot_radius': problem.agents[0].robot_type.radius},
+                           steps=steps)
     results = {
         'config': config.summary(), 'problems_per_environment': settings.problems_per_environment,
         'robots': settings.robots, 'robot_radii': list(settings.robot_radii), 'problem_seed': settings.seed,

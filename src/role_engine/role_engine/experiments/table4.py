@@ -62,13 +62,13 @@ class Associations:
 
 
 def run(request: ExperimentRequest) -> ExperimentResult:
-    return run_table4(request_config(request), request.run_dir, request.log)
+    return run_table4(request_config(request), request.run_dir, request.log, steps=request.progress)
 
 
-def run_table4(config: ExperimentConfig, run_dir, log: Log = print) -> ExperimentResult:
+def run_table4(config: ExperimentConfig, run_dir, log: Log = print, steps=None) -> ExperimentResult:
     run_dir = Path(run_dir)
     settings = config.table4
-    outcome = sweep_tables('roles-table4', Associations(), config, settings, log)
+    outcome = sweep_tables('roles-table4', Associations(), config, settings, log, steps=steps)
     comparisons = {'gra_lower': 0, 'equal': 0, 'gra_higher': 0, 'not_comparable': 0}
     for problem in outcome.problems:
         for run_detail in problem['runs'].values():

@@ -15,6 +15,8 @@ the MILP vs the fast stage-game solver).
 
 Only light imports here: listing the experiments must not load their code.
 """
+from dataclasses import replace
+
 from collab_tools.experiments.api import Experiment, Option
 
 PAPER = 'SGCM (stackelberg_guidance_sgcm)'
@@ -34,15 +36,16 @@ EXPERIMENTS = (
     Experiment(
         'sgcm-table1', f'{PAPER}, Table I and Fig. 4',
         'greedy vs SGCM on the ten cases (Table I, Fig. 4)', 'sgcm.experiments.table1',
+        config_file='sgcm/task.yaml', config_option='task', seeded=True,
         options=(Option('--mode', 'core = the abstract game; sim = both arms in pybullet through the nodes, '
                                   'every run recorded and the table computed from the bags',
                         choices=('core', 'sim'), default='core'),
-                 *CASE_OPTIONS,
+                 *(o if o.flag != '--planner' else replace(o, only_when=('mode', ('core',))) for o in CASE_OPTIONS),
                  Option('--failures', 'core mode: let executions fail with p_fail (default: plan with p_fail, '
                                       'execute without failures, as Table I compares deterministic runs)',
-                        action='store_true', default=False))),
+                        action='store_true', default=False, only_when=('mode', ('core',))))),
     Experiment(
         'sgcm-disturbance', f'{PAPER}, Fig. 5',
         'SGCM with disturbed, zero-trust and hostile followers (Fig. 5)', 'sgcm.experiments.disturbance',
-        options=CASE_OPTIONS),
+        options=CASE_OPTIONS, config_file='sgcm/task.yaml', config_option='task', seeded=True),
 )
