@@ -4,6 +4,9 @@
     timeout: 120                 # wall-clock seconds for the completion condition
     record: {bag: demo, topics: []}     # optional; empty topics = everything;
                                         # storage_preset: zstd_fast (rosbag2's MCAP presets)
+                                        # rates: {/clock: 500} (Hz: the recorder's queue depths)
+                                        # analysis_topics: [...] (lost messages fail the run, exit 5;
+                                        # default: every recorded topic)
     nodes:
       - {package: pybullet_bridge, executable: pybullet_bridge, use_sim_time: false,
          parameters: ['{config}/params/pybullet_bridge.yaml', {scenario: '{config}/scenarios/demo_mobile.yaml'}]}
@@ -44,7 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import ConfigurationError
-from ..core.fields import Fields, read_yaml_file, require_mapping
+from ..core.fields import Fields, read_yaml_file, require_list, require_mapping
 from ..names import check_namespace
 from .network import Discovery, NetworkConfigError, parse_hosts
 from .node_process import NodeSpec
@@ -199,6 +202,13 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                         'topics': [session.resolve(t) for t in record.get('topics') or []] or ['']}
             if 'storage_preset' in record:  # none | fastwrite | zstd_fast | zstd_small (rosbag2's presets)
                 recorder['storage_preset'] = str(record['storage_preset'])
+            rates = _require_mapping(record.get('rates') or {}, 'experiment.record.rates')
+            recorder['topic_rates'] = [f'{session.resolve(t)}={hz}' for t, hz in rates.items()] or ['']
+            analysis = record.get('analysis_topics')
+            if analysis is not None:
+                analysis = [session.resolve(str(t)) for t in
+                            require_list(analysis, 'experiment.record.analysis_topics', ExperimentError)]
+            session.add_recording('bag_recorder', bag, analysis)
             if session.namespace != '/' and not record.get('topics'):
                 # "Everything" of a namespaced session: its own topics, not a neighbour's.
                 recorder['exclude'] = ['/rosout', '/parameter_events', f'(?!{re.escape(session.namespace)}/).*']

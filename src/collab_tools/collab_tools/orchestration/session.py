@@ -8,7 +8,8 @@
 
 Exit codes for scripts built on a session (see exit_code()):
   0 success, 1 completion condition not met in time, 3 a node failed, 4 a node was never
-  discovered (a discovery setting that does not reach it).
+  discovered (a discovery setting that does not reach it), 5 a recording lost messages on the
+  experiment's analysis topics (see add_recording; a dead recorder's bag is repaired first).
 
 A session may have a namespace (``Session('sim1', namespace='/sim1')``): every node starts
 under it (a node's own namespace is joined below it), ``/clock``, ``/tf`` and ``/tf_static`` are
@@ -30,12 +31,14 @@ from ..names import join
 from .domain import acquire_domain
 from .network import Discovery, Host, NetworkConfigError
 from .node_process import NodeProcess, NodeSpec, build_command
+from .recordings import Recording, finish_recording
 
 EXIT_OK = 0
 EXIT_CONDITION_NOT_MET = 1
 EXIT_USAGE = 2
 EXIT_NODE_FAILED = 3
 EXIT_NOT_DISCOVERED = 4
+EXIT_MESSAGES_LOST = 5
 
 _OBSERVED_WITH_SERVER = False
 
@@ -108,6 +111,7 @@ class Session:
         self.condition_met: bool | None = None
         self.not_discovered: list[str] = []
         self._servers: list[NodeProcess] = []
+        self.recordings: dict[str, Recording] = {}
 
     # --- lifecycle ----------------------------------------------------------------
     def __enter__(self) -> 'Session':
@@ -129,6 +133,7 @@ class Session:
             self.stop_all()
             for server in self._servers:
                 server.stop(self.stop_timeout)
+            self.finish_recordings()
         finally:
             if self._observer is not None:
                 self._observer.close()
@@ -236,6 +241,17 @@ class Session:
     def failed_nodes(self) -> list[NodeProcess]:
         return [p for p in self.nodes.values() if p.ended_badly()]
 
+    # --- recordings -------------------------------------------------------------------
+    def add_recording(self, label: str, bag: Path, analysis_topics: list[str] | None = None) -> Recording:
+        """The bag the recorder node ``label`` writes: when the nodes have stopped, it is repaired if
+        the recorder died, and lost messages on ``analysis_topics`` (None: all) fail the session."""
+        self.recordings[label] = Recording(Path(bag), analysis_topics)
+        return self.recordings[label]
+
+    def finish_recordings(self) -> None:
+        for recording in self.recordings.values():
+            finish_recording(recording, self._log)
+
     # --- conditions -----------------------------------------------------------------
     @property
     def observer(self):
@@ -299,6 +315,8 @@ class Session:
             return EXIT_NODE_FAILED
         if self.not_discovered:
             return EXIT_NOT_DISCOVERED
+        if any(r.lost for r in self.recordings.values()):
+            return EXIT_MESSAGES_LOST
         if self.condition_met is False:
             return EXIT_CONDITION_NOT_MET
         return EXIT_OK
@@ -321,6 +339,7 @@ class Session:
                     'outcome': process.outcome(),
                 } for name, process in self.nodes.items()
             },
+            'recordings': {name: recording.summary() for name, recording in self.recordings.items()},
         }
         (self.run_dir / 'session.json').write_text(json.dumps(summary, indent=2))
 
