@@ -16,6 +16,9 @@ The team (names, colours, radii, heights) comes from the role engine's latched
 no file. A robot is published once its heading marker has been seen; while the marker is hidden
 its last seen heading is kept.
 
+Its subscriptions go through the node's input guard (collab_tools.input_guard): a malformed team
+description or image is dropped, counted and logged once per kind.
+
 Parameters (core.node_settings.TRACKER_SETTINGS): ``camera`` and ``team_namespace`` read-only; the colour matching thresholds
 ``chroma_tolerance``, ``min_brightness`` and ``min_area_px`` are dynamic (the next frame uses them).
 """
@@ -28,6 +31,8 @@ from rclpy.node import Node
 from role_interfaces.msg import Team
 
 from collab_tools import qos
+from collab_tools.core.input_checks import MalformedInput
+from collab_tools.input_guard import InputGuard
 from collab_tools.names import TeamNode, check_robot_name
 from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
@@ -52,7 +57,7 @@ class RobotTracker(Node):
         self.tracker: TeamTracker | None = None
         self.frame_id = ''
         self.pose_pubs: dict[str, object] = {}
-        self.create_subscription(Team, self.names.team('roles/team'), self._on_team, qos.LATCHED)
+        InputGuard.of(self).subscribe(Team, self.names.team('roles/team'), self._on_team, qos.LATCHED)
         self.camera = TopCamera(self, self.names.team(camera), on_frame=self._on_frame)
         self.get_logger().info(f"tracking the team of {self.names.team('roles/team')} on {self.names.team(camera)}")
 
@@ -71,9 +76,8 @@ class RobotTracker(Node):
                 raise ValueError(f"team: robot names must be ROS name tokens (got {', '.join(bad)})")
             tracker = TeamTracker([TrackedTarget(m.name, m.color, m.robot_type.radius, m.height) for m in team],
                                   self.settings)
-        except (ValueError, RoleEngineError) as error:
-            self.get_logger().error(f'ignored the team description: {error}')
-            return
+        except ValueError as error:     # RoleEngineError too: dropped, counted, logged by the input guard
+            raise MalformedInput(f'ignored the team description: {error}', kind='team description') from None
         self.tracker, self.frame_id = tracker, msg.header.frame_id or 'world'
         for member in team:
             if member.name not in self.pose_pubs:

@@ -11,8 +11,9 @@ stuck or far off its role is excluded and the remaining robots renegotiate from 
 positions (the excluded robot is then an obstacle as the camera sees it). When that is not
 negotiable (fewer usable robots than ``min_robots``, or no feasible assignment) the assignment
 says ``aborted`` and why, and the node exits if ``exit_when_done``. A first negotiation that finds
-no workable assignment says ``infeasible``. A malformed process role on the channel is dropped
-with a log line. Its tuning (core.node_settings.engine_tuning_schema) are dynamic ROS parameters
+no workable assignment says ``infeasible``. A malformed process role on the channel (out of
+bounds, a robot not in the team) or camera image (an invalid stamp) is dropped, counted and logged
+once per kind by the node's input guard (collab_tools.input_guard). Its tuning (core.node_settings.engine_tuning_schema) are dynamic ROS parameters
 whose defaults are the shared settings file's values.
 
 The decisions (when to negotiate, who is excluded, when to renegotiate or abort, and why) are
@@ -44,6 +45,7 @@ from nav_msgs.msg import OccupancyGrid
 from role_interfaces.msg import ProcessRole, RoleAssignment, Team
 
 from collab_tools import qos
+from collab_tools.input_guard import InputGuard
 from collab_tools.names import TeamNode
 from collab_tools.node_support import run
 from collab_tools.parameters import NodeParameters
@@ -58,7 +60,7 @@ from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tu
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
 from .core.tuning import EngineTuning
-from .role_messages import occupancy_grid_msg, process_role_msg, shared_role, team_msg
+from .role_messages import channel_role, occupancy_grid_msg, process_role_msg, team_msg
 
 
 class RoleEngine(Node):
@@ -86,7 +88,8 @@ class RoleEngine(Node):
         team = team_msg(self.team, self.world_frame)
         team.header.stamp = self.get_clock().now().to_msg()
         team_pub.publish(team)
-        self.create_subscription(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        self.team_names = frozenset(m.name for m in self.team)
+        InputGuard.of(self).subscribe(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
         self.log = PortLogger(self.get_logger()).log    # the engine's log lines
         self.engine = EngineBehaviour(self.task, self.team, tuning, self)
         self.observations = None
@@ -104,14 +107,11 @@ class RoleEngine(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_role(self, msg: ProcessRole) -> None:
+        if msg.robot and msg.robot not in self.team_names:
+            channel_role(msg, self.team_names)          # MalformedInput 'unknown robot': counted, logged
         if not self.engine.accepts(msg.robot, msg.round, msg.version):
             return  # the engine's own initial roles, or a role of an earlier round
-        try:
-            role = shared_role(msg)
-        except (ValueError, RoleEngineError) as error:
-            self.get_logger().error(f'dropped malformed process role: {error}')
-            return
-        self.engine.heard(msg.robot, self._now(), role, msg.role_id, msg.arrived)
+        self.engine.heard(msg.robot, self._now(), channel_role(msg, self.team_names), msg.role_id, msg.arrived)
 
     def _tick(self) -> None:
         self.engine.tick(self._now(), self._look())

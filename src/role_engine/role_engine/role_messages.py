@@ -1,19 +1,38 @@
 """Role messages <-> core objects: ProcessRole <-> (N+1, 4) process-role arrays, Team <-> team
-members, nav_msgs/OccupancyGrid <-> Environment (core.occupancy), tracked poses."""
+members, nav_msgs/OccupancyGrid <-> Environment (core.occupancy), tracked poses.
+
+Every reader validates what it gets and raises ValueError naming the field (a MalformedInput with
+its kind where the kind is not the field), so the nodes' input guard (collab_tools.input_guard)
+drops, counts and logs it; what passes can be played without an error later (a process role
+within the bounds below builds a controller: core.controller.TrajectoryFollower).
+"""
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid
 from role_interfaces.msg import ProcessRole, Team, TeamMember as TeamMemberMsg
 
+from collab_tools.core.input_checks import MalformedInput, error_kind
+
 from .core.conflict import SharedRole
 from .core.environment import Environment, RobotType
 from .core.errors import RoleEngineError
 from .core.formation_task import TeamMember
 from .core.occupancy import OccupancyCells, environment_from_cells, occupancy_cells, quaternion_yaw
+
+#: Bounds of a process role on the wire, far beyond any formation's and well inside what a player can
+#: hold: states per role (a GP role has tens), its duration (the controller samples it every
+#: core.trajectory.PROJECTION_STEP s: at most 180,000 samples), |x|, |y| in m, |vx|, |vy| in m/s, the radius in m, the start time in s.
+MAX_ROLE_STATES = 10_000
+MAX_ROLE_SECONDS = 3_600.0
+MAX_ROLE_COORDINATE = 10_000.0
+MAX_ROLE_SPEED = 1_000.0
+MAX_ROLE_RADIUS = 100.0
+MAX_START_TIME = 2.0**31
 
 
 def process_role_msg(robot: str, role_id: str, round_: int, version: int, start_time: float,
@@ -28,26 +47,44 @@ def process_role_msg(robot: str, role_id: str, round_: int, version: int, start_
 def trajectory_of(msg: ProcessRole) -> np.ndarray:
     """(N+1, 4) states of a message; ValueError when the arrays disagree or are too short."""
     lengths = {len(msg.x), len(msg.y), len(msg.vx), len(msg.vy)}
-    if len(lengths) != 1 or min(lengths) < 2:
-        raise ValueError(f'process role of {msg.robot!r}: x, y, vx, vy must have one equal length >= 2 '
-                         f'(got {len(msg.x)}, {len(msg.y)}, {len(msg.vx)}, {len(msg.vy)})')
-    if not (msg.dt > 0 and np.isfinite(msg.dt)):
-        raise ValueError(f'process role of {msg.robot!r}: dt must be > 0 (got {msg.dt})')
+    if len(lengths) != 1 or not 2 <= min(lengths) <= max(lengths) <= MAX_ROLE_STATES:
+        raise ValueError(f'process role of {msg.robot[:40]!r}: x, y, vx, vy must have one equal length in '
+                         f'[2, {MAX_ROLE_STATES}] (got {len(msg.x)}, {len(msg.y)}, {len(msg.vx)}, {len(msg.vy)})')
+    if not (msg.dt > 0 and np.isfinite(msg.dt) and msg.dt * (len(msg.x) - 1) <= MAX_ROLE_SECONDS):
+        raise ValueError(f'process role of {msg.robot[:40]!r}: dt must be > 0 and the role at most '
+                         f'{MAX_ROLE_SECONDS:g} s long (got dt {msg.dt} for {len(msg.x) - 1} steps)')
     return np.column_stack([msg.x, msg.y, msg.vx, msg.vy]).astype(float)
 
 
-def shared_role(msg: ProcessRole) -> SharedRole:
-    """The message as a SharedRole; ValueError naming the field when it is malformed."""
+def shared_role(msg: ProcessRole, team: Collection[str] | None = None) -> SharedRole:
+    """The message as a SharedRole; ValueError naming the field when it is malformed, MalformedInput
+    ``unknown robot`` when ``team`` (robot names) is given and does not name its robot."""
     if not msg.robot:
         raise ValueError('process role: robot must be a non-empty name')
+    if team is not None and msg.robot not in team:
+        raise MalformedInput(f'process role: robot {msg.robot[:40]!r} is not in the team', kind='unknown robot')
     states = trajectory_of(msg)
     if not np.isfinite(states).all():
         raise ValueError(f'process role of {msg.robot!r}: x, y, vx, vy must be finite')
-    if not (np.isfinite(msg.radius) and msg.radius >= 0):
-        raise ValueError(f'process role of {msg.robot!r}: radius must be finite and >= 0 (got {msg.radius})')
-    if not np.isfinite(msg.start_time):
-        raise ValueError(f'process role of {msg.robot!r}: start_time must be finite (got {msg.start_time})')
+    if np.abs(states[:, :2]).max() > MAX_ROLE_COORDINATE or np.abs(states[:, 2:]).max() > MAX_ROLE_SPEED:
+        raise ValueError(f'process role of {msg.robot!r}: x, y must be within +-{MAX_ROLE_COORDINATE:g} m and '
+                         f'vx, vy within +-{MAX_ROLE_SPEED:g} m/s')
+    if not (np.isfinite(msg.radius) and 0 <= msg.radius <= MAX_ROLE_RADIUS):
+        raise ValueError(f'process role of {msg.robot!r}: radius must be in [0, {MAX_ROLE_RADIUS:g}] m '
+                         f'(got {msg.radius})')
+    if not (np.isfinite(msg.start_time) and abs(msg.start_time) <= MAX_START_TIME):
+        raise ValueError(f'process role of {msg.robot!r}: start_time must be finite, within +-{MAX_START_TIME:g} s '
+                         f'(got {msg.start_time})')
     return SharedRole(msg.robot, states, msg.dt * (len(states) - 1), msg.radius, msg.start_time)
+
+
+def channel_role(msg: ProcessRole, team: Collection[str]) -> SharedRole:
+    """A process role heard on the channel (:func:`shared_role`); its errors say it was dropped, keeping
+    the field's kind for the input guard's counts."""
+    try:
+        return shared_role(msg, team)
+    except ValueError as error:
+        raise MalformedInput(f'dropped malformed process role: {error}', kind=error_kind(error)) from None
 
 
 # --- the team (role_engine -> role players, robot tracker) -------------------------------------

@@ -11,8 +11,10 @@ rest of its role by GP inference with the others' roles as time-indexed moving o
 conflict remains) and publishes it on the channel; that message is also its heartbeat, so it is
 published every period even when the role is kept. At the destination it stops and says so
 (``arrived``). A robot left out of the assignment, or of an aborted one, stops; so does a robot
-whose tracked pose is older than POSE_TIMEOUT. A malformed process role on the channel is dropped
-with a log line.
+whose tracked pose is older than POSE_TIMEOUT. Every subscription goes through the node's input
+guard (collab_tools.input_guard): a malformed message (a process role or assignment out of
+bounds, a robot not in the team, a non-finite pose, an invalid stamp) is dropped, counted and
+logged once per kind; an assignment is used whole or not at all.
 
 It reads no file another node uses but its settings file (the team-wide tuning defaults, a
 tracked config file; its ``scenario`` is not read): its robot's type, radius and velocity limits
@@ -40,6 +42,8 @@ from rclpy.node import Node
 from role_interfaces.msg import ProcessRole, RoleAssignment, Team
 
 from collab_tools import qos
+from collab_tools.core.input_checks import MalformedInput, error_kind
+from collab_tools.input_guard import InputGuard
 from collab_tools.names import RobotNode
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
@@ -50,7 +54,7 @@ from .core.errors import RoleEngineError
 from .core.node_settings import PLAYER_SETTINGS, player_settings_file, player_tuning_schema, team_member, tuned
 from .core.player import PublishedRole, RolePlayer as PlayerBehaviour, RoundAssignment
 from .core.tuning import PlayerTuning
-from .role_messages import environment_of, planar_pose, process_role_msg, shared_role, team_of
+from .role_messages import channel_role, environment_of, planar_pose, process_role_msg, shared_role, team_of
 
 #: s (ROS time) without a tracked pose after which a playing robot is stopped (the camera runs at ~10 Hz).
 POSE_TIMEOUT = 1.0
@@ -73,7 +77,12 @@ class RolePlayer(Node):
         self.log = PortLogger(self.get_logger()).log     # the player's log lines
         self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT)
         self.channel_pub = self.create_publisher(ProcessRole, self.names.team('roles/channel'), qos.RELIABLE)
-        self.create_subscription(Team, self.names.team('roles/team'), self._on_team, qos.LATCHED)
+        self.inputs = InputGuard.of(self)
+        self.team_names: frozenset[str] = frozenset()
+        # A team description that names no usable team is dropped; this robot missing from a valid one,
+        # or a bad start-up tuning value, stops the node (ConfigurationError: exit 2).
+        self.inputs.subscribe(Team, self.names.team('roles/team'), self._on_team, qos.LATCHED,
+                              fatal=(ConfigurationError,))
         self.get_logger().info(f"{self.robot}: waiting for the team description on {self.names.team('roles/team')}")
 
     def _on_team(self, msg: Team) -> None:
@@ -83,9 +92,8 @@ class RolePlayer(Node):
             return
         try:
             team = team_of(msg, self.task.inflation_margin)
-        except ValueError as error:
-            self.get_logger().error(f'ignored the team description: {error}')
-            return
+        except ValueError as error:      # dropped by the guard (not fatal: a plain ValueError)
+            raise MalformedInput(f'ignored the team description: {error}', kind='team description') from None
         member = team_member(team, self.robot, self.get_namespace())
         try:
             tuning = PlayerTuning.from_task(self.task, member.robot_type)
@@ -96,12 +104,13 @@ class RolePlayer(Node):
         except ParameterException as error:
             raise ConfigurationError(str(error)) from None
         self.member = member
+        self.team_names = frozenset(m.name for m in team)
         self.player = PlayerBehaviour(self.robot, tuning, self)
-        self.create_subscription(RoleAssignment, self.names.team('roles/assignment'), self._on_assignment,
-                                 qos.LATCHED)
-        self.create_subscription(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
-        self.create_subscription(OccupancyGrid, self.names.team('roles/map'), self._on_map, qos.LATCHED)
-        self.create_subscription(PoseStamped, 'tracked_pose', self._on_pose, qos.SENSOR_IN)
+        inputs = self.inputs
+        inputs.subscribe(RoleAssignment, self.names.team('roles/assignment'), self._on_assignment, qos.LATCHED)
+        inputs.subscribe(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        inputs.subscribe(OccupancyGrid, self.names.team('roles/map'), self._on_map, qos.LATCHED)
+        inputs.subscribe(PoseStamped, 'tracked_pose', self._on_pose, qos.SENSOR_IN)
         self.replan_timer = self.create_timer(tuning.replan_period, lambda: self.player.replan(self._now()))
         self.create_timer(POSE_TIMEOUT / 4.0, lambda: self.player.check_pose_age(self._now(), POSE_TIMEOUT))
         self.get_logger().info(f'{self.robot} ({member.robot_type.name}) ready')
@@ -120,39 +129,37 @@ class RolePlayer(Node):
     def _on_assignment(self, msg: RoleAssignment) -> None:
         if msg.round <= self.player.round:
             return
+        # Converted whole before the player sees it: a malformed initial role drops the assignment
+        # (the guard counts and logs it), never half of it.
+        self.inputs.stamp(msg.header.stamp)
         roles = {}
-        for role in msg.initial_roles:       # a malformed one is dropped (its own: the robot has no role)
-            converted = self._shared_role(role)
-            if converted is not None:
-                roles[role.robot] = (role.role_id, converted)
+        for index, role in enumerate(msg.initial_roles):
+            try:
+                roles[role.robot] = (role.role_id, self._playable(shared_role(role, self.team_names)))
+            except ValueError as error:
+                raise MalformedInput(f'assignment of round {msg.round}: initial_roles[{index}]: {error}',
+                                     kind=f'assignment: {error_kind(error)}') from None
         self.assignment_stamp = msg.header.stamp
         self.player.on_assignment(RoundAssignment(msg.round, msg.status, msg.message, roles))
+
+    def _playable(self, role):
+        """The role, once its controller can be built (RoleEngineError, a ValueError, when not)."""
+        self.player.tuning.follower(role.trajectory, role.total_time)
+        return role
 
     def _on_role(self, msg: ProcessRole) -> None:
         if msg.robot == self.robot or msg.round != self.player.round:
             return
-        role = self._shared_role(msg)
-        if role is not None:
-            self.player.on_role(msg.robot, msg.round, role)
-
-    def _shared_role(self, msg: ProcessRole):
-        try:
-            return shared_role(msg)
-        except (ValueError, RoleEngineError) as error:
-            self.get_logger().error(f'dropped malformed process role: {error}')
-            return None
+        self.player.on_role(msg.robot, msg.round, channel_role(msg, self.team_names))
 
     def _on_pose(self, msg: PoseStamped) -> None:
-        try:
-            pose = planar_pose(msg)
-        except ValueError as error:
-            self.get_logger().warn(f'dropped a tracked pose: {error}', throttle_duration_sec=5.0)
-            return
+        pose = planar_pose(msg)
         now = self._now()
         self.player.observe(now, pose)
         self.player.control(now)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
+        self.inputs.stamp(msg.header.stamp)
         self.map_msg = msg
 
     # --- the player's port -----------------------------------------------------------------------
