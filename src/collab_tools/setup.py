@@ -19,6 +19,7 @@ setup(
     entry_points={
         'console_scripts': [
             'bag_recorder = collab_tools.bag_recorder_node:main',
+            'bag_reindex = collab_tools.core.bag_repair:main',
             'scripted_driver = collab_tools.scripted_driver_node:main',
         ],
     },
