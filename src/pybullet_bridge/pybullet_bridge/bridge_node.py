@@ -11,6 +11,9 @@ Names: everything but /clock, /tf and /tf_static is relative to the node's names
 ``-r __ns:=/sim1`` moves the whole simulation. QoS (collab_tools.qos): camera images, labels,
 camera info and robot sensors are sensor data (best effort), the label legend, camera pose
 and ground truth latched, cmd_vel accepted from best-effort publishers.
+Malformed input (a non-finite command, a refused request) is dropped, counted in ``~/status``
+(``rejected_messages``) and logged once per kind through the node's input guard
+(collab_tools.input_guard).
 
 /clock goes out every control tick, or at ``clock_rate`` (simulated Hz) when set: each message
 costs every node on simulated time a wake-up. As fast as possible, ``fast_batch_period`` runs
@@ -34,6 +37,8 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import SetBool
 
+from collab_tools.core.input_checks import MalformedInput
+from collab_tools.input_guard import InputGuard
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import LATCHED, RELIABLE
@@ -87,6 +92,9 @@ class PybulletBridge(Node):
             raise ConfigurationError(f'parameter camera_renderer: {error}') from None
         self.paused = settings['start_paused']
         self.rejected_messages = 0
+        # Every dropped input (a command, a request) is counted here for ~/status and logged once per kind.
+        self.inputs = InputGuard.of(self)
+        self.inputs.on_reject = self._count_rejected
         self.adapters = []
 
         self.clock_pub = self.create_publisher(ClockMsg, '/clock', RELIABLE)
@@ -98,8 +106,8 @@ class PybulletBridge(Node):
         self.camera = CameraPublisher(self, self.params, scenario.camera.frame_id)
 
         self.create_service(ResetScenario, '~/reset', self._on_reset)
-        self.create_service(SetBool, '~/pause', self._on_pause)
-        self.create_service(StepSimulation, '~/step', self._on_step)
+        self.inputs.serve(SetBool, '~/pause', self._on_pause)
+        self.inputs.serve(StepSimulation, '~/step', self._on_step)
 
         self._on_scene_loaded()
         self.timer = None
@@ -176,11 +184,11 @@ class PybulletBridge(Node):
                                                  scenario.camera.frame_id, position, quaternion), stamp)
 
     def reject(self, source: str, reason: str) -> None:
-        """Log and count a malformed input that was dropped."""
+        """Log (once per kind) and count a malformed input that was dropped."""
+        self.inputs.reject(source, MalformedInput(reason))
+
+    def _count_rejected(self, source: str, error: BaseException) -> None:
         self.rejected_messages += 1
-        self.get_logger().warn(f'dropped input on {source}: {reason} '
-                               f'({self.rejected_messages} dropped so far)',
-                               throttle_duration_sec=1.0)
 
     # --- simulation loop -----------------------------------------------------------------
     def _on_timer(self) -> None:

@@ -40,6 +40,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from collab_tools.core.image_codec import LABELS_PNG_FORMAT, RGB8_JPEG_FORMAT, encode_labels_png, encode_rgb_jpeg
+from collab_tools.input_guard import InputGuard
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import LATCHED, SENSOR_OUT
 
@@ -95,7 +96,7 @@ class CameraPublisher:
         self.next_time = 0.0
         self._scene: Scene | None = None
         self._frame_pubs = (self.image_pub, self.labels_pub, self.image_compressed_pub, self.labels_compressed_pub)
-        self.frame_service = node.create_service(GetCameraFrame, f'{camera_ns}/get_frame', self._on_get_frame)
+        self.frame_service = InputGuard.of(node).serve(GetCameraFrame, f'{camera_ns}/get_frame', self._on_get_frame)
 
     # --- parameters ---------------------------------------------------------------------
     def _set_publish_camera(self, value: bool) -> None:

@@ -17,6 +17,8 @@ from rclpy.service import Service
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 
+from collab_tools.core.input_checks import MalformedInput
+from collab_tools.input_guard import InputGuard
 from collab_tools.qos import SENSOR_IN
 
 from .core.mobile_robot import MobileRobot
@@ -79,21 +81,22 @@ def create_adapters(node: Node, entities, reject: RejectFn) -> list[EntityAdapte
 class MobileRobotAdapter(EntityAdapter):
     """<robot>/cmd_vel (geometry_msgs/Twist, relative to the node's namespace) -> drive command.
 
-    Subscribed best effort (SENSOR_IN), so a best-effort teleop is heard as well as a reliable one.
+    Subscribed best effort (SENSOR_IN), so a best-effort teleop is heard as well as a reliable one,
+    through the node's input guard: a non-finite or refused command is dropped, counted (the
+    bridge's status ``rejected_messages``) and logged once per kind.
     """
 
     def __init__(self, node: Node, entity: MobileRobot, reject: RejectFn):
         super().__init__(node, entity, reject)
         self.topic = f'{entity.name}/cmd_vel'
         self._ros_objects.append(
-            node.create_subscription(Twist, self.topic, self._on_cmd_vel, SENSOR_IN))
+            InputGuard.of(node).subscribe(Twist, self.topic, self._on_cmd_vel, SENSOR_IN))
 
     def _on_cmd_vel(self, msg: Twist) -> None:
         values = (msg.linear.x, msg.angular.z)
         if not all(math.isfinite(v) for v in values):
-            self.reject(self.topic, f'non-finite velocity (linear.x={values[0]}, '
-                                    f'angular.z={values[1]}); keeping the previous command')
-            return
+            raise MalformedInput(f'non-finite velocity (linear.x={values[0]}, angular.z={values[1]}); keeping '
+                                 'the previous command', kind='non-finite velocity')
         ignored = [name for name, value in (('linear.y', msg.linear.y), ('linear.z', msg.linear.z),
                                             ('angular.x', msg.angular.x),
                                             ('angular.y', msg.angular.y))
@@ -103,10 +106,7 @@ class MobileRobotAdapter(EntityAdapter):
             self.node.get_logger().warn(
                 f'{self.topic}: ignoring {", ".join(ignored)} (differential drive uses '
                 'linear.x and angular.z only)', throttle_duration_sec=5.0)
-        try:
-            self.entity.set_command(values[0], values[1], self.node.scene.sim_time)
-        except ValueError as error:
-            self.reject(self.topic, str(error))
+        self.entity.set_command(values[0], values[1], self.node.scene.sim_time)   # ValueError: dropped
 
 
 register_adapter(MobileRobot, MobileRobotAdapter)

@@ -25,6 +25,7 @@ from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
+from collab_tools.input_guard import InputGuard
 from collab_tools.qos import SENSOR_OUT
 
 from .core.frames import sensor_frame
@@ -53,7 +54,7 @@ class SensingMobileRobotAdapter(MobileRobotAdapter):
             self.publishers[name] = publisher
             self._ros_objects.append(publisher)
         self.service_name = f'{entity.name}/set_sensor_active'
-        self._ros_objects.append(node.create_service(SetSensorActive, self.service_name, self._on_set_active))
+        self._ros_objects.append(InputGuard.of(node).serve(SetSensorActive, self.service_name, self._on_set_active))
 
     def on_tick(self, sim_time: float) -> None:
         if self.sensors is None:
