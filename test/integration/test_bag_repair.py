@@ -1,0 +1,109 @@
+"""A recorder killed with SIGKILL leaves a bag the session repairs (rosbags and mcap's indexed
+reader open it, nearly every message kept); a flood the recorder cannot keep up with is
+counted: lost = published - recorded, for our own publisher."""
+import json
+import os
+import signal
+import time
+
+import pytest
+import yaml
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosbags.highlevel import AnyReader
+from std_msgs.msg import UInt32
+
+from bridge_helpers import wait_for_subscriber
+from collab_tools.core.bag_check import check_bag
+from collab_tools.core.recording_loss import STATUS_FILE, read_status
+from collab_tools.orchestration.node_process import NodeSpec
+from collab_tools.orchestration.session import EXIT_MESSAGES_LOST, EXIT_NODE_FAILED
+
+mcap_reader = pytest.importorskip('mcap.reader')
+
+
+def recorder(output, **parameters):
+    return NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder', use_sim_time=False,
+                    parameters=[{'output': str(output), **parameters}])
+
+
+def recorder_counts(bag, topic):
+    """The recorder's latest counts for ``topic`` (its status file), {} before the first."""
+    custom = read_status(bag / STATUS_FILE).get('custom_data') or {}
+    return json.loads(custom.get('recorder_counts') or '{}').get(topic, {})
+
+
+def wait_for(condition, timeout, what):
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f'timed out waiting for {what}'
+        time.sleep(0.1)
+
+
+def bag_messages(bag):
+    with AnyReader([bag]) as reader:
+        return [(c.topic, t) for c, t, _ in reader.messages()]
+
+
+def test_killed_recorder_bag_is_repaired_by_the_session(session, ros_node, tmp_path):
+    bag = tmp_path / 'bag'
+    publisher = ros_node.create_publisher(UInt32, '/steady', QoSProfile(depth=100))
+    process = session.start(recorder(bag, topics=['/steady'], chunk_flush_period=0.2))
+    session.add_recording('bag_recorder', bag)
+    wait_for_subscriber(publisher, timeout=20.0)
+    published = 400
+    for i in range(published):
+        publisher.publish(UInt32(data=i))
+        time.sleep(0.005)
+    # Everything received is in the file after a flush period or two; then the kill.
+    wait_for(lambda: recorder_counts(bag, '/steady').get('received') == published, 20.0, 'the recorder')
+    time.sleep(0.5)
+    os.killpg(process.popen.pid, signal.SIGKILL)
+    process.popen.wait(10.0)
+    assert not (bag / 'metadata.yaml').exists()
+
+    session.stop_all()
+    session.finish_recordings()  # what the session does on exit
+
+    recording = session.recordings['bag_recorder']
+    assert recording.repaired and recording.problem is None, recording
+    assert check_bag(bag) == []
+    messages = bag_messages(bag)
+    assert len(messages) >= published - 5, f'{len(messages)} of {published} kept'
+    with next(bag.glob('*.mcap')).open('rb') as f:
+        reader = mcap_reader.make_reader(f)
+        assert reader.get_summary().statistics.message_count == len(messages)
+        assert sum(1 for _ in reader.iter_messages()) == len(messages)
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['custom_data']['messages_lost'] == '0'   # the recorder's last status
+    assert session.exit_code() == EXIT_NODE_FAILED        # the recorder died: the run failed
+
+
+def test_flood_loss_is_counted_exactly(session, ros_node, tmp_path):
+    bag = tmp_path / 'bag'
+    # The publisher keeps every message until delivered; the recorder's queue holds one.
+    publisher = ros_node.create_publisher(UInt32, '/flood', QoSProfile(depth=6000,
+                                                                       reliability=ReliabilityPolicy.RELIABLE))
+    session.start(recorder(bag, topics=['/flood'], queue_depth=1, chunk_flush_period=0.2))
+    session.add_recording('bag_recorder', bag)
+    wait_for_subscriber(publisher, timeout=20.0)
+    # Gaps count from the first message received: let that be the first one published.
+    publisher.publish(UInt32(data=0))
+    wait_for(lambda: recorder_counts(bag, '/flood').get('received') == 1, 20.0, 'the first message')
+    published = 5000
+    for i in range(1, published):
+        publisher.publish(UInt32(data=i))
+    # The newest message always stays in a keep-last queue: it arrives last.
+    wait_for(lambda: sum(recorder_counts(bag, '/flood').get(k, 0) for k in ('received', 'gaps')) >= published,
+             30.0, 'the last message')
+    assert session.stop('bag_recorder') == 0
+
+    recorded = len(bag_messages(bag))
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    counts = json.loads(info['custom_data']['recorder_counts'])['/flood']
+    lost = int(info['custom_data']['messages_lost'])
+    assert 0 < lost == published - recorded, (lost, published, recorded)
+    assert counts['written'] == counts['received'] == recorded
+    session.finish_recordings()
+    assert session.recordings['bag_recorder'].lost == {'/flood': lost}
+    assert session.exit_code() == EXIT_MESSAGES_LOST
+    assert f'{lost} message(s) LOST' in (session.run_dir / 'logs' / 'bag_recorder.log').read_text()
