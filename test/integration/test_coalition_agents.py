@@ -21,6 +21,7 @@ from bridge_helpers import body_pose, bridge_spec
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, AgentStatus, Information, NamedValue
 from coalition_agents.core import CoalitionSearch, StaticSensing, load_capability_file, load_costs, load_library, load_tasks
 from coalition_agents.core.live_sensing import LiveSensing
+from coalition_agents.core.transport.link_model import LinkModel
 
 LEADER, HELPER, BYSTANDER = 'robot_blind', 'robot_helper', 'robot_bystander'
 STATUS = 'coalition_interfaces/msg/AgentStatus'
@@ -78,6 +79,23 @@ def expected_best(files, scenario_path):
     return search.run([LEADER])[LEADER].best
 
 
+def longest_loss_streak(seed, loss, batches=400):
+    """The most batches in a row the agent's seeded link model drops among its first ``batches``
+    (the agents' link preset, ``paper_fig9``, with ``loss``). The draws are fixed by the seed but
+    which batches meet a streak depends on the run's timing, so a test's seeds must keep every
+    streak within what its search time absorbs."""
+    link = LinkModel.preset('paper_fig9', loss_probability=loss, seed=seed)
+    longest = run = 0
+    for _ in range(batches):
+        run = run + 1 if not link.sample()[0] else 0
+        longest = max(longest, run)
+    return longest
+
+
+#: link seeds of the three-robot team: at 20 % loss, at most 3 batches in a row lost (seed 100 lost 4)
+TEAM_SEEDS = (101, 102, 103)
+
+
 def start_team(session, files, config_dir, loss):
     scenario = config_dir / 'scenarios' / 'coalition_three_robots.yaml'
     session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
@@ -85,7 +103,7 @@ def start_team(session, files, config_dir, loss):
     processes = {}
     for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
         params = {**files, 'task': 'navigation' if robot == LEADER else 'none',
-                  'team_task': 'navigation', 'loss_probability': loss, 'seed': 100 + index, 'search_time': 3.0}
+                  'team_task': 'navigation', 'loss_probability': loss, 'seed': TEAM_SEEDS[index], 'search_time': 3.0}
         if robot == LEADER:  # the team as a parameter, no capability file (as on a machine without it)
             params.pop('capability_file')
             params['capabilities'] = open(files['capability_file']).read()
@@ -152,18 +170,35 @@ def boxpush_files(config_dir):
             'tasks_file': str(coalitions / 'tasks.yaml')}
 
 
+#: link seeds of the navigation team: at 20 % loss, at most 3 batches in a row lost. Seed 202 (the
+#: spare localizer_l2, formerly) dropped 5 in a row (its batches 19-23): when the re-forming search
+#: met that streak -- whether it does depends on how many batches the spare sent before, i.e. on
+#: timing -- the spare's offers or its COMMIT_ACCEPT waited 0.2 + 0.4 + 0.8 + 1.6 + 3.2 s for the
+#: back-off, longer than the search time, and the leader reported FAILED (about 1 run in 6).
+NAV_SEEDS = (200, 201, 203)
+
+
+def test_the_link_seeds_keep_loss_streaks_within_the_tests_budget():
+    """The teams' seeded links never drop more than 3 batches in a row at 20 % loss (the budget
+    the search times are set for; see start_navigation_team)."""
+    streaks = {seed: longest_loss_streak(seed, 0.2) for seed in TEAM_SEEDS + NAV_SEEDS}
+    assert max(streaks.values()) <= 3, streaks
+    assert longest_loss_streak(202, 0.2) == 5 and longest_loss_streak(100, 0.2) == 4  # the seeds they replaced
+
+
 def start_navigation_team(session, config_dir, loss):
     """The navigation part of the box-pushing scenario: pusher_r2 cannot localise; localizer_l1 and
     localizer_l2 both see it (it sees neither). The box-pushing robots' agents are not started.
-    Search time 6 s: at 20 % loss per batch, three lost batches in a row (the link model's seeded
-    draws make such streaks land anywhere) delay an answer by the retry back-off, 0.2 + 0.4 + 0.8
-    + 1.6 s = 3 s; the leader still negotiates as soon as its coalition has settled."""
+    Search time 6 s: at 20 % loss per batch, three lost batches in a row (the most the seeds in
+    :data:`NAV_SEEDS` ever draw; the streaks land anywhere, depending on timing) delay an answer by
+    the retry back-off, 0.2 + 0.4 + 0.8 + 1.6 s = 3 s; the leader still negotiates as soon as its
+    coalition has settled."""
     session.start(bridge_spec(config_dir / 'scenarios' / 'coalition_boxpush.yaml', real_time_factor=1.0,
                               start_paused=False, publish_camera=False, ground_truth_rate=5.0))
     processes = {}
     for index, robot in enumerate((NAV_LEADER, SPARE_A, SPARE_B)):
         params = {**boxpush_files(config_dir), 'task': 'navigation' if robot == NAV_LEADER else 'none',
-                  'team_task': 'navigation', 'loss_probability': loss, 'seed': 200 + index, 'search_time': 6.0,
+                  'team_task': 'navigation', 'loss_probability': loss, 'seed': NAV_SEEDS[index], 'search_time': 6.0,
                   'team_wait': 3.0, 'reform_timeout': 1.5, 'stream_timeout': 1.0, 'goal_position': [1.0, -3.0]}
         processes[robot] = session.start(agent_spec(robot, params))
     return processes

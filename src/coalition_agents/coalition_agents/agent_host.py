@@ -1,38 +1,33 @@
 """schema_agent_host: several schema_agent nodes in one process, like an rclcpp component container.
 
-Why: the Fig. 9 column runs up to 20 agents. Twenty rclpy processes on this 2-core machine cost
-~20 interpreters, 20 DDS participants and their discovery traffic, and the operating system's
-scheduling between them -- start-up alone takes tens of seconds and their contention, not the
-algorithm, would dominate the measured search time. As in an rclcpp component container, every
-agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its own
-name, parameters, publishers and subscriptions on the real topics (``/<robot>/coalition``, the
-bridge's sensor topics and services); only the process, the DDS participant, the executor and the
-channel's endpoints are shared: ONE :class:`~.transport.channel_hub.ChannelHub` (one publisher and
-subscription of ``<team>/coalition/batches``, one timer) serves every hosted agent -- not one
-subscription and timer per agent (``executor: multi``: each agent has its own). One executor runs every node's callbacks; each node's
-callbacks stay mutually exclusive (its default callback group), so an agent sees its events one
-at a time, as in its own process. ``executor``: ``single`` (default) -- rclpy's single-threaded
-executor: under the GIL threads add no parallelism, and the multi-threaded executor's per-callback
-overhead (futures, thread hand-over) made the agents fall behind a burst of channel messages;
-``multi`` -- a multi-threaded executor with one thread per agent.
+Why: the Fig. 9 column runs up to 20 agents. Twenty rclpy processes on this 2-core machine cost ~20 interpreters, 20
+DDS participants and their discovery traffic, and the operating system's scheduling between them -- start-up alone
+takes tens of seconds and their contention, not the algorithm, would dominate the measured search time. As in an rclcpp
+component container, every agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its
+own name, parameters, publishers and subscriptions on the real topics (``/<robot>/coalition``, the bridge's sensor
+topics and services); only the process, the DDS participant, the executor and the channel's endpoints are shared: ONE
+:class:`~.transport.channel_hub.ChannelHub` (one publisher and subscription of ``<team>/coalition/batches``, one timer)
+serves every hosted agent -- not one subscription and timer per agent (``executor: multi``: each agent has its own).
+One executor runs every node's callbacks; each node's callbacks stay mutually exclusive (its default callback group),
+so an agent sees its events one at a time, as in its own process. ``executor``: ``single`` (default) -- rclpy's
+single-threaded executor: under the GIL threads add no parallelism, and the multi-threaded executor's per-callback
+overhead (futures, thread hand-over) made the agents fall behind a burst of channel messages; ``multi`` -- a
+multi-threaded executor with one thread per agent.
 
-With the single-threaded executor the agents' deferred work -- their reasoning slices and the
-channel messages waiting for them -- runs through ONE :class:`~.core.cooperative_work.CooperativeWork`
-queue, ``work_slice`` (wall s) per executor cycle, round robin: every cycle still serves the
-channel, timers and sensor reports, so a COMMIT_REQUEST or an ACK waits for at most one short
-cycle instead of every agent's reasoning.
+With the single-threaded executor the agents' deferred work -- their reasoning slices and the channel messages waiting
+for them -- runs through ONE :class:`~.core.cooperative_work.CooperativeWork` queue, ``work_slice`` (wall s) per
+executor cycle, round robin: every cycle still serves the channel, timers and sensor reports, so a COMMIT_REQUEST or an
+ACK waits for at most one short cycle instead of every agent's reasoning.
 
-Each hosted agent is a :class:`~.schema_agent_node.SchemaAgentNode` named ``schema_agent`` in
-its robot's namespace under the host's (``/<robot>/schema_agent`` for a host in ``/``), built
-with its own arguments (no subclass per agent): the host's own ``--params-file`` arguments (so
-the agents' parameters come with the host's: ``/**`` entries for every agent,
-``/**/<robot>/schema_agent`` entries per agent, :func:`~.core.sim_scenarios.agent_parameter_file`;
-an agent ignores the host's parameters and the host the agents'), then ``agent_parameters`` if
-set, the host's remapping rules (e.g. ``/clock``; not its name or namespace), ``use_sim_time`` as
-the host's and ``team_namespace`` when the host's is set. The host's ``-p`` values stay its own.
+Each hosted agent is a :class:`~.schema_agent_node.SchemaAgentNode` named ``schema_agent`` in its robot's namespace
+under the host's (``/<robot>/schema_agent`` for a host in ``/``), built with its own arguments (no subclass per agent):
+the host's own ``--params-file`` arguments (so the agents' parameters come with the host's: ``/**`` entries for every
+agent, ``/**/<robot>/schema_agent`` entries per agent, :func:`~.core.sim_scenarios.agent_parameter_file`; an agent
+ignores the host's parameters and the host the agents'), then ``agent_parameters`` if set, the host's remapping rules
+(e.g. ``/clock``; not its name or namespace), ``use_sim_time`` as the host's and ``team_namespace`` when the host's is
+set. The host's ``-p`` values stay its own.
 
 Parameters (all read-only: they shape the process at start-up):
-
 * ``robots`` (string array, required): the robots to host.
 * ``agent_parameters`` (path, optional): one more ROS 2 parameter file for the hosted nodes only,
   after the host's own parameter files (a later file's value wins).
@@ -42,7 +37,8 @@ Parameters (all read-only: they shape the process at start-up):
 * ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
   per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
   of equal capabilities reuse each other's generated spaces instead of generating them again.
-* ``executor`` (``single`` | ``multi``, default single), ``work_slice`` (wall s, 0.01): see above.
+* ``executor`` (``single`` | ``multi``, default single), ``work_slice`` (wall s, 0.01): see above;
+  ``COALITION_HOST_PROFILE`` in the environment: a profile of the spin loop (:mod:`.host_runtime`).
 * ``linger`` (s, default 1.0): once every hosted agent with ``exit_when_done`` is done, keep
   spinning this long (wall clock) so the last messages reach the recorder, then exit 0. Without
   any such agent the host spins until shutdown.
@@ -71,6 +67,7 @@ from collab_tools.parameters import NodeParameters
 from .transport.agent_channel import CHANNEL_TOPIC, batch_topic
 from .transport.channel_hub import ChannelHub
 from .core.cooperative_work import CooperativeWork
+from .host_runtime import profiled, tune_collector
 from .schema_agent_node import SchemaAgentNode
 
 #: remapping targets that rename or move a node: the host's own, never forwarded to its agents
@@ -263,6 +260,7 @@ def main(args=None) -> int:
         host = AgentHost(args)
         host.wait_for_channel_recorder()
         host.start_agents()
+        tune_collector()  # the start-up heap frozen, fewer young collections (host_runtime)
     except (ConfigurationError, ParameterException) as error:
         rclpy.logging.get_logger('schema_agent_host').fatal(f'cannot start: {error}')
         _tear_down(host)
@@ -279,8 +277,9 @@ def main(args=None) -> int:
         for node in (host, *host.agents):
             executor.add_node(node)
         waiting = host.finishing()
-        while rclpy.ok() and (not waiting or not all(agent.finished.done() for agent in waiting)):
-            executor.spin_once(timeout_sec=0.1)
+        with profiled(host.get_name()):  # COALITION_HOST_PROFILE=<dir> only (host_runtime)
+            while rclpy.ok() and (not waiting or not all(agent.finished.done() for agent in waiting)):
+                executor.spin_once(timeout_sec=0.1)
         if waiting:
             host.get_logger().info(f'every finishing agent is done; lingering {host.linger:g} s')
             end = time.monotonic() + host.linger

@@ -274,3 +274,42 @@ def test_random_offer_sequences_give_the_answers_of_a_full_evaluation(library, c
             assert answers[0] == answers[1], f'step {step}'
     assert agents[True][1].offers == agents[False][1].offers
     assert fast.evaluations < full.evaluations
+
+
+def scripted_leader_view(library, costs, tasks, ask, robots=4):
+    """The script of :func:`scripted_run`; at every step the back robot is asked ``ask(agent, now)``."""
+    wire = column(library, costs, tasks, robots, incremental=True)
+    back = wire.agents[f'robot_{robots}']
+    seen = []
+    sense(wire, robots, 0.0, blind_sees_ahead=False)
+    back.start()
+    now = 0.0
+    for step in range(40):
+        now = round(now + 0.1, 3)
+        if step < 5:
+            sense(wire, robots, now, blind_sees_ahead=False)
+        elif step < 20 or step >= 35:
+            sense(wire, robots, now)
+        else:
+            for k in range(2, robots + 1):
+                wire.agents[f'robot_{k}'].observe('fiducial', now, [f'robot_{k - 1}'])
+                wire.agents[f'robot_{k}'].observe('laser', now)
+        # Asked between the agents' ticks and deliveries, as the leader's settle rule asks.
+        for name, agent in wire.agents.items():
+            agent.tick(now)
+            if agent is back:
+                found = ask(back, now)
+                seen.append(None if found is None else (found.cost, found.members, tuple(found.lcs.step_lines())))
+        wire.deliver()
+    return seen, back
+
+
+def test_the_cheapest_coalition_kept_up_to_date_is_the_first_of_the_sorted_ones(library, costs, tasks):
+    """The settle rule's question, answered without sorting (coalitions added by new offers,
+    removed by replaced offers and lapsed readings on the way), equals the sorted list's first."""
+    fast, back = scripted_leader_view(library, costs, tasks, lambda agent, now: agent.cheapest(now))
+    sorted_first, _ = scripted_leader_view(
+        library, costs, tasks, lambda agent, now: next(iter(agent.coalitions(now)), None))
+    assert fast == sorted_first
+    assert fast[3] is None and fast[15] is not None and fast[-1] is not None
+    assert back.cheapest(4.0) is back.coalitions(4.0)[0]

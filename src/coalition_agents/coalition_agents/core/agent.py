@@ -400,31 +400,39 @@ class SchemaAgent:
 
     def coalitions(self, now: float) -> list[FeasibleCoalition]:
         """The executable coalitions of the task now, in non-descending coalition cost."""
+        return list(self._refresh_root(now).sorted_coalitions(self.excluded))
+
+    def cheapest(self, now: float) -> FeasibleCoalition | None:
+        """``coalitions(now)[0]`` (None: none), without sorting them all (:meth:`RootSpace.cheapest`)."""
+        return self._refresh_root(now).cheapest(self.excluded)
+
+    def _refresh_root(self, now: float) -> RootSpace:
         sensed = self._refresh_readings(now)
         root = self._root
         changes = root.changes.take()
         if changes.dirty or changes.stale:
             offers = self._offer_view()
             new_offers, gone = changes.new_offers, changes.gone
+            added: list[FeasibleCoalition] = []
+            removed = False
             for index in sorted(changes.stale | changes.dirty):
                 self.evaluations += 1
                 full = index in changes.stale
                 # Every coalition is kept here: drop those built on a replaced offer, add those
                 # using a new one.
-                found = [] if full else [coalition for coalition in root.found.get(index, [])
+                kept = root.found.get(index, [])
+                found = [] if full else [coalition for coalition in kept
                                          if not any(id(offer) in gone for offer in coalition.lcs.offers)]
+                removed = removed or len(found) < len(kept)
                 for lcs in self.reasoner.local_coalition_solutions(root.solutions[index], sensed, offers,
                                                                    new_offers=None if full else new_offers):
                     cost, members = coalition_cost_from_offers(lcs, self._members_of(lcs),
                                                                self.helper_motor_schema_cost, root_is_helped=True)
                     found.append(FeasibleCoalition(lcs, members, cost))
+                    added.append(found[-1])
                 root.found[index] = found
-            root.ordered = None
-        if root.ordered is None:
-            root.ordered = sorted((coalition for index in sorted(root.found) for coalition in root.found[index]
-                                   if not self.excluded.intersection(coalition.members)),
-                                  key=lambda coalition: coalition.order)
-        return list(root.ordered)
+            root.changed(added, removed, self.excluded)
+        return root
 
     def sensors_serving(self, robot: str) -> tuple[str, ...]:
         """This robot's sensors in the cheapest answers it offered to ``robot`` (what it keeps

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Iterable, Sequence
+from typing import Iterable, Iterator, Sequence
 
 from .coalition_solution import InformationOffer, LocalCoalitionSolution
 from .information import InformationInstance
@@ -180,6 +180,10 @@ class ReplySpace:
         self.best = best
 
 
+#: :attr:`RootSpace.best` when it must be looked for among every coalition again
+STALE = object()
+
+
 @dataclass
 class RootSpace:
     """The task's potential solutions and, per solution, its feasible coalitions (cached)."""
@@ -189,6 +193,42 @@ class RootSpace:
     changes: SpaceChanges = field(default_factory=SpaceChanges)
     #: every found coalition without an excluded robot, sorted (None: to be sorted again)
     ordered: list[FeasibleCoalition] | None = None
+    #: the first of them (None: none; :data:`STALE`: to be looked for again)
+    best: object = STALE
+
+    def _usable(self, excluded: frozenset[str]) -> Iterator[FeasibleCoalition]:
+        """The found coalitions without an ``excluded`` robot, in the order the sort starts from."""
+        return (coalition for index in sorted(self.found) for coalition in self.found[index]
+                if not excluded.intersection(coalition.members))
+
+    def sorted_coalitions(self, excluded: frozenset[str]) -> list[FeasibleCoalition]:
+        """Every usable coalition, sorted by :attr:`FeasibleCoalition.order` (kept until a change)."""
+        if self.ordered is None:
+            self.ordered = sorted(self._usable(excluded), key=lambda coalition: coalition.order)
+            self.best = self.ordered[0] if self.ordered else None
+        return self.ordered
+
+    def cheapest(self, excluded: frozenset[str]) -> FeasibleCoalition | None:
+        """``sorted_coalitions(excluded)[0]`` (None: none) without sorting them all: the settle
+        rule asks for it at every reasoning step of a searching leader while offers keep adding
+        coalitions (thousands in the 20-robot column)."""
+        if self.best is STALE:
+            self.best = min(self._usable(excluded), key=lambda coalition: coalition.order, default=None)
+        return self.best  # type: ignore[return-value]
+
+    def changed(self, added: Sequence[FeasibleCoalition], removed: bool, excluded: frozenset[str]) -> None:
+        """Coalitions were ``added`` (in found order) and, if ``removed``, some dropped: the sorted
+        list is stale; :attr:`best` follows the added ones (a removal: looked for again). A tie on
+        the whole order key (equal coalitions of one potential solution) keeps the one found first,
+        as the stable sort does."""
+        self.ordered = None
+        if removed:
+            self.best = STALE
+            return
+        for coalition in ([] if self.best is STALE else added):
+            if not excluded.intersection(coalition.members) and (
+                    self.best is None or coalition.order < self.best.order):  # type: ignore[attr-defined]
+                self.best = coalition
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,6 +239,6 @@ class ReceivedOffer(InformationOffer):
 
 
 __all__ = [
-    'Answer', 'FeasibleCoalition', 'ReceivedOffer', 'ReplySpace', 'RootSpace', 'SpaceChanges', 'answer_order',
+    'STALE', 'Answer', 'FeasibleCoalition', 'ReceivedOffer', 'ReplySpace', 'RootSpace', 'SpaceChanges', 'answer_order',
     'better_answer', 'coalition_cost_from_offers', 'offer_rank',
 ]

@@ -135,8 +135,8 @@ class RobotReasoner:
         self.potential_solution_limit = potential_solution_limit
         self.ledger = RequestLedger(self.robot)
         self._compiled: dict[int, _CompiledSolution] = {}
-        self._cache_view: tuple | None = None
         self._cache: dict = {}
+        self._variants: dict[InformationInstance, tuple[InformationInstance, ...]] = {}
 
     @property
     def helper_motor_schema_cost(self) -> float:
@@ -173,14 +173,19 @@ class RobotReasoner:
 
     # Serving requests ------------------------------------------------------------------------
     def variants(self, request: InformationRequest) -> tuple[InformationInstance, ...]:
-        """What this robot can provide for ``request`` (footnote 9), in its local frame."""
+        """What this robot can provide for ``request`` (footnote 9), in its local frame (remembered
+        per label: every teammate asks for the same few labels)."""
+        known = self._variants.get(request.label)
+        if known is not None:
+            return known
         if request.label.has_local:
             raise RequestError(f"request.label: a request names robots, not 'local' (got {request.label})")
         try:
             self.library.types.check(request.label)
         except InformationError as exc:
             raise RequestError(f'request.label: {exc}') from None
-        return request_variants(request.label, self.robot)
+        known = self._variants[request.label] = request_variants(request.label, self.robot)
+        return known
 
     def reply_solutions(self, variant: InformationInstance) -> list[PotentialSolution]:
         return self.generator.reply_solutions(variant, self.potential_solution_limit)
@@ -241,12 +246,19 @@ class RobotReasoner:
         cache = self._view_cache(sensed, offers)
         slots: list[_Slot] = []
         for index, (leaf, label, requested) in enumerate(compiled.leaves):
-            key = (leaf.kind, leaf.schema if leaf.kind is SchemaKind.ES_EPS else requested, label,
-                   cheapest_offers and leaf.kind is SchemaKind.CS)
-            candidates = cache.get(key)
-            if candidates is None:
-                candidates = cache[key] = _Candidates(label, self._candidates(leaf, label, requested, sensed, offers,
-                                                                              cheapest_offers))
+            kind = leaf.kind
+            key = (kind, leaf.schema if kind is SchemaKind.ES_EPS else requested, label,
+                   cheapest_offers and kind is SchemaKind.CS)
+            # What the candidates are built from: kept while that object stays (see _view_cache).
+            source = (sensed.get(leaf.schema) if kind is SchemaKind.ES_EPS
+                      else offers.get(requested) if kind is SchemaKind.CS else None)
+            entry = cache.get(key)
+            if entry is not None and entry[0] is source:
+                candidates = entry[1]
+            else:
+                candidates = _Candidates(label, self._candidates(leaf, label, requested, sensed, offers,
+                                                                 cheapest_offers))
+                cache[key] = (source, candidates)
             if not candidates.entries:
                 return
             slots.append(_Slot(index, leaf, label, candidates))
@@ -278,12 +290,12 @@ class RobotReasoner:
                 return
 
     def _view_cache(self, sensed, offers) -> dict:
-        """Candidates per leaf label for one view of the readings and offers (the same objects
-        are passed for every solution a robot instantiates at one evaluation)."""
-        view = self._cache_view
-        if view is None or view[0] is not sensed or view[1] is not offers:
-            self._cache_view = (sensed, offers)  # keeps them alive: identity stays meaningful
-            self._cache = {}
+        """Candidates per leaf: key -> (the readings tuple / offer list they were built from, the
+        candidates), reused while a view still holds that very object. Callers never change a
+        readings tuple or an offer list in place: the agent's and the search's
+        :class:`~.reasoning_caches.OfferBook` hand out a label's list unchanged until an offer of
+        that label arrives, and readings are replaced. So an offer rebuilds only the candidates of
+        its own label, not those of every leaf as when the cache lasted one view."""
         return self._cache
 
     @staticmethod

@@ -278,9 +278,9 @@ class AgentLifecycle:
     def _settled(self, now: float) -> bool:
         """Track the cheapest executable coalition; True once it is time to negotiate: it has
         not improved for settle_time, or the search time is over."""
-        coalitions = self.agent.coalitions(now)
-        if coalitions:
-            cost = coalitions[0].cost
+        best = self.agent.cheapest(now)  # not every coalition sorted at every step
+        if best is not None:
+            cost = best.cost
             if self.found_at is None:
                 self.found_at, self.found_cost = now, cost
                 self._note(f'search started at {self.started_at:.3f} s; first executable coalition at '
@@ -293,7 +293,7 @@ class AgentLifecycle:
             return True
         # Settled only while the coalition is executable now: readings that lapsed for a moment
         # (a busy executor) must not end the search before search_time with nothing to propose.
-        return (bool(coalitions) and self._best_since is not None
+        return (best is not None and self._best_since is not None
                 and now - self._best_since >= self.settings['settle_time'])
 
     def _lead(self, now: float) -> None:

@@ -8,9 +8,11 @@ result (they are pure functions of what they are keyed on):
 
 * :class:`OfferBook` -- the offers received per request label, and the *view* the reasoner
   instantiates with (request label -> offers): the same dict object until an offer is added or the
-  book is cleared. :meth:`~.coalition.RobotReasoner.local_coalition_solutions` keeps its candidate
-  lists and indexes for as long as it is given the same view (and readings) objects, so every
-  evaluation between two offers reuses them instead of rebuilding them per call.
+  book is cleared, and in it each label's list the same list object until an offer of *that* label
+  is added. :meth:`~.coalition.RobotReasoner.local_coalition_solutions` keeps a leaf's candidate
+  list and index for as long as it is given the same list (or readings) object, so every
+  evaluation reuses them until an offer of that leaf's label arrives -- not only between two
+  offers of any label.
 * :class:`AnswerMemo` -- :func:`~.requests.answers_request` remembered per (instance, label): the
   same few hundred pairs come up at every serve.
 
@@ -37,6 +39,9 @@ class OfferBook(Generic[Entry]):
     def __init__(self, offer_of: Callable[[Entry], InformationOffer] = lambda entry: entry):  # type: ignore[assignment,return-value]
         self._offer_of = offer_of
         self._entries: dict[InformationInstance, dict[Hashable, Entry]] = {}
+        #: label -> its offers as last listed; labels with an offer added since (ordered: no set)
+        self._lists: dict[InformationInstance, list[InformationOffer]] = {}
+        self._changed: dict[InformationInstance, None] = {}
         self._view: dict[InformationInstance, list[InformationOffer]] | None = None
 
     def get(self, label: InformationInstance, key: Hashable) -> Entry | None:
@@ -46,10 +51,13 @@ class OfferBook(Generic[Entry]):
     def put(self, label: InformationInstance, key: Hashable, entry: Entry) -> None:
         """Keep ``entry`` (replacing the one of the same key); the view changes."""
         self._entries.setdefault(label, {})[key] = entry
+        self._changed[label] = None
         self._view = None
 
     def clear(self) -> None:
         self._entries.clear()
+        self._lists.clear()
+        self._changed.clear()
         self._view = None
 
     def labels(self) -> Iterator[InformationInstance]:
@@ -57,11 +65,14 @@ class OfferBook(Generic[Entry]):
 
     def view(self) -> dict[InformationInstance, list[InformationOffer]]:
         """request label -> its offers in arrival order (replacements keep their place): the same
-        object until :meth:`put` or :meth:`clear` -- never mutate it."""
+        object until :meth:`put` or :meth:`clear`, and each label's list the same object until an
+        offer of that label is put -- never mutate them. Labels in the order of their first offer."""
         if self._view is None:
             offer_of = self._offer_of
-            self._view = {label: [offer_of(entry) for entry in entries.values()]
-                          for label, entries in self._entries.items()}
+            for label in self._changed:  # first offers in order: _lists keeps the labels' first-offer order
+                self._lists[label] = [offer_of(entry) for entry in self._entries[label].values()]
+            self._changed.clear()
+            self._view = dict(self._lists)
         return self._view
 
 

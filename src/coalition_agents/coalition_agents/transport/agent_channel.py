@@ -346,7 +346,7 @@ class AgentChannel:
     def busy(self) -> bool:
         """Whether the hub's timer has work for this channel soon: copies awaiting an answer,
         delayed batches, ACKs waiting for a batch."""
-        return bool(self._delayed) or self.core.next_deadline() < float('inf') or \
+        return bool(self._delayed) or self.core.has_pending() or \
             self.outbox.next_ack_due() < float('inf') or self._flush_scheduled
 
     def on_tick(self) -> bool:
@@ -354,8 +354,13 @@ class AgentChannel:
         Returns :meth:`busy`."""
         self._release_due()
         now = self.now()
-        resend, failed = self.core.poll(now)
-        self._queue(resend)
+        failed = []
+        if now < self.core.poll_due():  # nothing can be due yet: no walk over the peers
+            self.core.listen(now)
+        else:
+            resend, failed = self.core.poll(now)
+            if resend:
+                self._queue(resend)
         if now >= self.outbox.next_ack_due():
             self._transmit_all(self.outbox.flush(now))  # ack-only batches (and anything else waiting)
         for undelivered in failed:

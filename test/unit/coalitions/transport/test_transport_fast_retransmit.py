@@ -206,3 +206,64 @@ def test_commit_messages_are_handed_to_the_agent_before_queued_offers(library):
         order.append(entry[0])
     assert order == [commit, release] + offers and len(queue) == 0
     assert helper.ledger.holds('robot_1/7', 'robot_1', 8.0)
+
+
+def lossy_exchange(library, lazy, seed, policy=None):
+    """A sender talks to two peers for 4 s over a link that loses a third of the copies and
+    answers after 5-300 ms, polled every 10 ms: eagerly (``poll`` at every tick) or lazily
+    (``poll`` only from ``poll_due`` on, ``listen`` before, as the ROS channel does). Returns every
+    re-send and give-up with its time, and how many polls walked the peers."""
+    import random
+    rng = random.Random(seed)
+    sender = ReliableChannel('robot_1', policy)
+    receivers = {name: ReliableChannel(name, policy) for name in ('robot_2', 'robot_3')}
+    answers = []   # (arrival at the sender, ack)
+    events, polls = [], 0
+
+    def transmit(copies, now):
+        for copy in copies:
+            sender.transmitted(copy.receiver, [copy.message_id], now)
+            if rng.random() < 1 / 3:
+                continue   # lost
+            received = receivers[copy.receiver].receive(copy, now)
+            answers.extend((now + rng.uniform(0.005, 0.3), reply) for reply in received.replies)
+
+    for now in ticks(0.0, 12.0):
+        if now <= 4.0 and rng.random() < 0.3:
+            message = request(library, message_id=sender.new_id())
+            transmit(sender.send(message, now, [rng.choice(sorted(receivers))]), now)
+        answers.sort(key=lambda entry: entry[0])
+        while answers and answers[0][0] <= now + 1e-9:
+            sender.receive(answers.pop(0)[1], now)
+        if lazy and now < sender.poll_due():
+            sender.listen(now)
+            continue
+        polls += 1
+        resend, failed = sender.poll(now)
+        events += [(round(now, 3), 'resend', copy.receiver, copy.message_id) for copy in resend]
+        events += [(round(now, 3), 'failed', gone.receiver, gone.message.message_id) for gone in failed]
+        transmit(resend, now)
+    return events, polls, sender
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_polling_only_when_something_can_be_due_resends_the_same_copies_at_the_same_times(library, seed):
+    eager, eager_polls, _ = lossy_exchange(library, lazy=False, seed=seed)
+    lazy, lazy_polls, sender = lossy_exchange(library, lazy=True, seed=seed)
+    assert lazy == eager and any(kind == 'resend' for _, kind, _, _ in eager)
+    assert lazy_polls < eager_polls / 3
+    assert sender.poll_due() <= sender.next_deadline() and not sender.has_pending()
+
+
+def test_poll_due_never_passes_a_deadline_a_change_creates(library):
+    policy = RetryPolicy(reorder_window_s=0.05)
+    sender = ReliableChannel('robot_1', policy)
+    assert sender.poll(0.0) == ([], []) and sender.poll_due() == float('inf')   # nothing pending
+    first = send(library, sender, 1.0)
+    assert 1.0 < sender.poll_due() <= sender.next_deadline()
+    assert sender.poll(1.001) == ([], []) and sender.poll_due() == sender.next_deadline()
+    second = send(library, sender, 1.2)
+    sender.transmitted('robot_2', [second.message_id], 1.2)
+    ack(second, 1.3, sender)   # proves ``first`` lost: re-sent reorder_window_s later
+    assert sender.poll_due() <= 1.35 and sender.next_deadline() == pytest.approx(1.35)
+    assert sender.poll(1.351)[0] == [first]

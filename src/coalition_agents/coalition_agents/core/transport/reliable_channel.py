@@ -45,6 +45,14 @@ Delivery (:class:`ReliableChannel`; TCP's fast retransmit and selective repeat, 
     * The transport may batch copies (:mod:`.batching`): :meth:`ReliableChannel.transmitted`
       stamps the copies of a batch with the time the batch actually left, which is what the
       reordering rule compares.
+    * Polling is cheap when nothing is due (ours): :meth:`ReliableChannel.poll_due` says when a
+      poll can first have work -- the earliest deadline found by the last poll, or, if something
+      changed since (a send, an answer, a transmission), that moment plus the shortest delay any
+      change can put before a deadline (every deadline a change creates is at least
+      ``reorder_window_s``, the smallest tail timeout or ``peer_timeout_s`` after it). A transport
+      that polls every few milliseconds calls :meth:`ReliableChannel.listen` instead of
+      :meth:`ReliableChannel.poll` before then (the stall rule still sees every call): same
+      retries at the same times, without walking every peer at every tick.
 
 Commitments: :mod:`.commitments`; retry policy and per-peer state: :mod:`.retry`.
 """
@@ -133,6 +141,12 @@ class ReliableChannel:
         #: RELEASE must not commit this robot to a coalition its leader has given up
         self._released: dict[tuple[str, str], float] = {}
         self._last_poll: float | None = None
+        #: no poll has work before this (see poll_due); a change since the last poll brings it forward
+        self._due = -NEVER
+        policy = self.policy
+        #: the shortest time from a change to a deadline it creates (see the module docstring)
+        self._change_gap = min(policy.reorder_window_s, policy.min_timeout_s, policy.tail_timeout_s,
+                               policy.peer_timeout_s)
 
     def new_id(self) -> int:
         return next(self._ids)
@@ -163,6 +177,8 @@ class ReliableChannel:
         for copy in copies:
             if copy.needs_ack:
                 self._peer(copy.receiver).add(PendingCopy(copy, now, now, now), now)
+        if message.needs_ack:
+            self._changed(now)
         self.stats.sent += len(copies)
         return copies
 
@@ -172,6 +188,7 @@ class ReliableChannel:
         peer = self._peers.get(receiver)
         if peer is None:
             return
+        self._changed(now)
         for message_id in message_ids:
             pending = peer.pending.get(message_id)
             if pending is None or pending.last_sent >= now:
@@ -200,6 +217,27 @@ class ReliableChannel:
     def cancel(self, message_id: int) -> int:
         """Stop retrying ``message_id`` (e.g. a request whose search time is over); copies dropped."""
         return sum(peer.remove(message_id) is not None for peer in self._peers.values())
+
+    def _changed(self, now: float) -> None:
+        """Something a deadline depends on changed at ``now`` (see :meth:`poll_due`)."""
+        if now + self._change_gap < self._due:
+            self._due = now + self._change_gap
+
+    def poll_due(self) -> float:
+        """When :meth:`poll` can first have something to do: :meth:`poll` before then returns
+        nothing (so :meth:`listen` does instead). Never later than :meth:`next_deadline`."""
+        return self._due
+
+    def has_pending(self) -> bool:
+        """Whether some copy waits for its answer (:meth:`next_deadline` is finite)."""
+        return any(peer.pending for peer in self._peers.values())
+
+    def listen(self, now: float) -> None:
+        """A poll with nothing due (``now`` before :meth:`poll_due`): only the stall rule, which
+        must see every call of a transport that polls regularly."""
+        if self._last_poll is not None and now - self._last_poll > self.policy.stall_s:
+            self._discount_stall(now - self._last_poll)
+        self._last_poll = now
 
     def _discount_stall(self, gap: float) -> None:
         """This robot did not poll for ``gap`` s: shift what judges its peers by that much."""
@@ -235,9 +273,7 @@ class ReliableChannel:
         resend: list[ChannelMessage] = []
         failed: list[Undelivered] = []
         policy = self.policy
-        if self._last_poll is not None and now - self._last_poll > policy.stall_s:
-            self._discount_stall(now - self._last_poll)
-        self._last_poll = now
+        self.listen(now)
         for robot, peer in self._peers.items():
             if not peer.pending:
                 continue
@@ -289,6 +325,7 @@ class ReliableChannel:
                 del self._seen[key]
         for key in [key for key, time in self._released.items() if time < horizon]:
             del self._released[key]
+        self._due = self.next_deadline()
         return resend, failed
 
     # --- receiving ---------------------------------------------------------------------------
@@ -349,6 +386,7 @@ class ReliableChannel:
     def _on_answer(self, message: ChannelMessage, now: float) -> Received:
         peer = self._peer(message.sender)
         pending = peer.remove(message.in_reply_to)
+        self._changed(now)
         # The peer is alive and working through its inbox: restart its tail timer, end the back-off.
         peer.last_answer_at = now
         peer.expiries = 0
