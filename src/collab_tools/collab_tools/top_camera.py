@@ -16,6 +16,7 @@ when its frame is used.
 """
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
@@ -28,8 +29,27 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from .core.camera_geometry import TopViewGeometry
 from .core.image_codec import decode_labels, decode_rgb
 from .images import image_array
-from .input_guard import InputGuard
+from .core.input_checks import MalformedInput
+from .input_guard import InputGuard, check_stamp
 from .qos import LATCHED, SENSOR_IN
+
+
+def check_camera_pose(msg: PoseStamped) -> None:
+    """MalformedInput unless the camera pose is finite with a non-zero quaternion (and a valid stamp)."""
+    check_stamp(msg.header.stamp)
+    p, q = msg.pose.position, msg.pose.orientation
+    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+    if not all(math.isfinite(v) for v in values) or not any((q.x, q.y, q.z, q.w)):
+        raise MalformedInput(f'camera pose: position and orientation must be finite and set (got {values})',
+                             kind='camera pose: not finite')
+
+
+def check_camera_info(msg: CameraInfo) -> None:
+    """MalformedInput unless the intrinsics K are 9 finite numbers with positive focal lengths."""
+    k = list(msg.k)
+    if len(k) != 9 or not all(math.isfinite(v) for v in k) or k[0] <= 0 or k[4] <= 0:
+        raise MalformedInput(f'camera_info.k: must be 9 finite numbers with fx, fy > 0 (got {k[:9]})',
+                             kind='camera_info.k: invalid')
 
 
 #: image_transport transports TopCamera reads ('raw': sensor_msgs/Image; 'compressed': CompressedImage).
@@ -77,9 +97,11 @@ class TopCamera:
         self._notify()
 
     def _on_info(self, msg: CameraInfo) -> None:
+        check_camera_info(msg)
         self._info, self._geometry = msg, None
 
     def _on_pose(self, msg: PoseStamped) -> None:
+        check_camera_pose(msg)     # a NaN pose must not replace the latched good one
         self._pose, self._geometry = msg, None
 
     def _on_legend(self, msg: LabelLegend) -> None:

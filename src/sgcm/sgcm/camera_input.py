@@ -32,7 +32,7 @@ from collab_tools.images import image_array
 from collab_tools.input_guard import InputGuard
 from collab_tools.parameters import NodeParameters
 from collab_tools.qos import LATCHED
-from collab_tools.top_camera import TopCamera
+from collab_tools.top_camera import TopCamera, check_camera_pose
 
 from .core.perception import StateEstimate, estimate_state
 from .core.task_config import TaskConfig
@@ -124,6 +124,7 @@ class CameraInput:
         self._streaming_since: float | None = None   # steady time a stream without service was first seen
 
     def _on_pose(self, msg: PoseStamped) -> None:
+        check_camera_pose(msg)     # a NaN pose must not replace the latched good one
         self._pose = msg
 
     def _on_legend(self, msg: LabelLegend) -> None:
