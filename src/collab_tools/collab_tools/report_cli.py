@@ -68,6 +68,8 @@ def _bag_entry(summary: BagSummary, label: str, plots: list[Path], out_dir: Path
         'start_ns': summary.start_ns,
         'end_ns': summary.end_ns,
         'message_count': summary.message_count,
+        'messages_lost': summary.lost,    # the recorder's count per topic (None: not counted)
+        'repaired': summary.repaired,     # what bag_reindex did after the recorder died
         'topics': [
             {
                 'topic': t.topic,

@@ -142,3 +142,13 @@ def test_session_exit_code_for_lost_messages(tmp_path):
     assert summary['recordings']['bag_recorder']['messages_lost'] == {'/a': 1}
     session.recordings['bag_recorder'].lost = {}
     assert session.exit_code() == EXIT_OK
+
+
+def test_summary_and_report_show_the_loss_and_the_repair(tmp_path):
+    from collab_tools.core.bag_analysis import format_summary, summarize_bag
+    bag = _bag(tmp_path / 'run', lost_on_a=4, killed=True)
+    finish_recording(Recording(bag), lambda _line: None)
+    summary = summarize_bag(bag)
+    assert summary.lost == {'/a': 4} and 'unclean stop' in summary.repaired
+    text = format_summary(summary)
+    assert 'LOST by the recorder: 4 messages (/a 4)' in text and 'repaired: ' in text

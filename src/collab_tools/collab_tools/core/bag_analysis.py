@@ -15,6 +15,8 @@ from typing import Any
 from rosbags.highlevel import AnyReader
 from rosbags.typesys.store import Typestore
 
+from .recording_loss import lost_on
+
 __all__ = [
     'BagSummary',
     'TopicStats',
@@ -52,6 +54,10 @@ class BagSummary:
     end_ns: int
     topics: list[TopicStats] = field(default_factory=list)
     message_count: int = 0
+    #: Messages the recorder lost per topic ({} none; None: the bag has no recorder counts).
+    lost: dict[str, int] | None = None
+    #: What bag_reindex did to the bag after its recorder died (None: closed cleanly).
+    repaired: str | None = None
 
     def topic(self, name: str) -> TopicStats:
         """The stats of one topic (KeyError if the bag does not have it)."""
@@ -185,6 +191,7 @@ def summarize_bag(path: Path) -> BagSummary:
     total = sum(counts.values())
     start = min(first.values()) if first else 0
     end = max(last.values()) if last else 0
+    custom = _custom_data(bag_path)
     return BagSummary(
         path=bag_path,
         storage=_storage_id(bag_path),
@@ -193,7 +200,19 @@ def summarize_bag(path: Path) -> BagSummary:
         end_ns=end,
         topics=stats,
         message_count=total,
+        lost=lost_on(custom),
+        repaired=custom.get('reindexed'),
     )
+
+
+def _custom_data(path: Path) -> dict:
+    import yaml
+
+    try:
+        info = yaml.safe_load((path / _METADATA).read_text(encoding='utf-8'))['rosbag2_bagfile_information']
+        return dict(info.get('custom_data') or {})
+    except Exception:  # noqa: BLE001 - the bag opened; its custom_data is only extra information
+        return {}
 
 
 def read_messages(
@@ -237,4 +256,11 @@ def format_summary(summary: BagSummary) -> str:
     out.append(
         f'duration: {summary.duration_s:.3f} s, {summary.message_count} messages on {len(summary.topics)} topics'
     )
+    if summary.lost:
+        out.append(f'LOST by the recorder: {sum(summary.lost.values())} messages ('
+                   + ', '.join(f'{topic} {n}' for topic, n in sorted(summary.lost.items())) + ')')
+    elif summary.lost is not None:
+        out.append('lost by the recorder: none')
+    if summary.repaired:
+        out.append(f'repaired: {summary.repaired}')
     return '\n'.join(out)
