@@ -246,3 +246,35 @@ def test_help_shows_only_the_experiments_own_options():
     assert done.returncode == 0 and '--config' in done.stdout and '--resume' in done.stdout
     for foreign in ('--loss', '--mode', '--only', '--seed', '--robots'):
         assert foreign not in done.stdout
+
+
+def test_a_loop_in_its_own_code_is_checkpointed_through_steps(tmp_path):
+    calls = []
+    with Steps('own', 2, checkpoint=Checkpoint(tmp_path), log=lambda _l: None) as steps:
+        square = steps.checkpointed(lambda x: calls.append(x) or {'sq': x * x}, key=lambda x: f'x={x}')
+        assert square(3) == {'sq': 9}
+    with Steps('own', 2, checkpoint=Checkpoint(tmp_path), log=lambda _l: None) as steps:
+        square = steps.checkpointed(lambda x: calls.append(x) or {'sq': x * x}, key=lambda x: f'x={x}')
+        assert square(3) == {'sq': 9} and square(4) == {'sq': 16}
+    assert calls == [3, 4]
+
+
+def test_sgcm_table1_resumes_to_the_same_results(tmp_path):
+    table1 = all_experiments()['sgcm-table1']
+    options = {'mode': 'core', 'only': ['case_1', 'case_2', 'case_4'], 'planner': 'kernel'}
+
+    def request(run_dir, on_step=None):
+        return ExperimentRequest(CONFIG, run_dir, options=options, log=lambda _l: None,
+                                 checkpoint=Checkpoint(run_dir), on_step=on_step)
+    run_experiment(table1, request(tmp_path / 'whole'))
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(table1, request(tmp_path / 'resumed', interrupt_after(2)))
+    run_experiment(table1, request(tmp_path / 'resumed'))
+    documents = [json.loads((tmp_path / name / 'results.json').read_text()) for name in ('whole', 'resumed')]
+    timing = TIMING_KEYS | {'planning_seconds'}
+
+    def plain(document):
+        if isinstance(document, dict):
+            return {k: plain(v) for k, v in document.items() if k not in timing}
+        return [plain(v) for v in document] if isinstance(document, list) else document
+    assert plain(documents[0]) == plain(documents[1]) and len(documents[1]['cases']) == 3

@@ -153,8 +153,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     experiment_path = Path(run_dir) / 'experiment.yaml'
     experiment_path.write_text(yaml.safe_dump(experiment, sort_keys=False))
     quiet = lambda _text: None  # noqa: E731
-    runs = []
-    for index, loss in enumerate(losses):
+    def loss_run(index: int, loss: float) -> dict:
         if not 0.0 <= loss <= 1.0:
             raise ConfigError(f'loss: must be in [0, 1] (got {loss!r})')
         label = f'loss_{loss:g}'
@@ -172,7 +171,12 @@ def run(request: ExperimentRequest) -> ExperimentResult:
             f"(completed {run['box']['completed']}), navigation {run['navigation']['final_distance_m']} m "
             f"(completed {run['navigation']['completed']}); time to form {run['time_to_form_s']}; "
             f"re-formings {run['reforms']}; conflicts {len(run['conflicts'])}")
-        runs.append(run)
+        return run
+
+    with request.progress('coalition-boxpush', len(losses)) as steps:   # each loss checkpointed (--resume)
+        step = steps.checkpointed(loss_run, key=lambda index, loss: f'loss_{loss:g}',
+                                  describe=lambda run: f"box {run['box']['final_distance_m']} m from its goal")
+        runs = [step(index, loss) for index, loss in enumerate(losses)]
     results = {'goal_tolerance_m': ACCEPTANCE_TOLERANCE_M, 'leader_goal_tolerance_m': goal_tolerance, 'runs': runs}
     acceptance = {'box_reached': all(r['box']['reached'] for r in runs),
                   'navigation_reached': all(r['navigation']['reached'] for r in runs),

@@ -75,7 +75,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                 f'{row.get("ros_messages", 0)} ROS messages')
 
     rows = sweep('coalition-fig9', list(enumerate(wanted, start=1)), run_column, log, name=lambda c: f'{c[1]} robots',
-                 describe=describe)
+                 describe=describe, request=request)   # each column checkpointed, restored by --resume
     ten = next((r for r in rows if r['robots'] == 10), None)
     acceptance = {'every_column_formed': all(r.get('state') == 'committed' and r.get('includes_all_robots')
                                              for r in rows),

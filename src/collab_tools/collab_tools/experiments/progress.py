@@ -12,6 +12,15 @@ import time
 from collections.abc import Callable
 
 Log = Callable[[str], None]
+_bars: list = []     # the bars drawn now (innermost last): write() prints above them
+
+
+def write(text: str) -> None:
+    """``print``, above the progress bar when one is drawn (the command's log for every experiment line)."""
+    if _bars:
+        _bars[-1].write(text, file=sys.stdout)
+    else:
+        print(text)
 
 
 def clock_text(seconds: float) -> str:
@@ -26,7 +35,7 @@ def clock_text(seconds: float) -> str:
 
 def wants_bar(log: Log) -> bool:
     """A bar only for the default printer on a terminal (tests and quiet callers pass their own log)."""
-    return log is print and sys.stdout.isatty() and os.environ.get('COLLAB_PROGRESS', '') != 'plain'
+    return log in (print, write) and sys.stdout.isatty() and os.environ.get('COLLAB_PROGRESS', '') != 'plain'
 
 
 class Progress:
@@ -43,6 +52,7 @@ class Progress:
 
             self._bar = tqdm(total=self.total, initial=self.done, desc=label, unit='step', file=sys.stderr,
                              dynamic_ncols=True, leave=False)
+            _bars.append(self._bar)
 
     def elapsed(self) -> float:
         return time.monotonic() - self._started
@@ -77,4 +87,5 @@ class Progress:
     def close(self) -> None:
         if self._bar is not None:
             self._bar.close()
+            _bars.remove(self._bar)
             self._bar = None

@@ -46,6 +46,21 @@ class Steps:
         if self.on_step is not None:
             self.on_step(str(key))
 
+    def checkpointed(self, function: Callable[..., Row], key: Callable[..., str],
+                     encode: Callable[[Row], Any] = lambda row: row, decode: Callable[[Any], Row] = lambda value: value,
+                     describe: Callable[[Row], str] = lambda row: 'done') -> Callable[..., Row]:
+        """``function`` as one step per call (named ``key(*args)``): restored when saved, else run and saved
+        (``encode``/``decode``: to and from a JSON-able form) -- for a loop that lives in code of its own."""
+        def step(*args):
+            name = key(*args)
+            if self.has(name):
+                return decode(self.value(name))
+            began = time.monotonic()
+            row = function(*args)
+            self.finish(name, encode(row), f'{name}: {describe(row)} ({time.monotonic() - began:.1f} s)')
+            return row
+        return step
+
     def close(self) -> None:
         self.progress.close()
 

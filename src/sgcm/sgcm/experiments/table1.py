@@ -23,7 +23,7 @@ from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Log
 
 from ..core.centralized import CentralizedPlanner
-from ..core.episode import EpisodeResult, run_greedy, run_sgcm
+from ..core.episode import EpisodeResult, RoundRecord, run_greedy, run_sgcm
 from ..core.rearrangement import RearrangementModel
 from ..core.scenario_builder import build_scenario
 from ..core.task_config import Case, TaskConfig, task_of
@@ -45,6 +45,11 @@ class CaseOutcome:
     centralized_rounds: int | None
 
 
+def episode_from_dict(saved: dict) -> EpisodeResult:
+    """An episode back from :meth:`EpisodeResult.to_dict` (a checkpointed case)."""
+    return EpisodeResult(**{**saved, 'records': [RoundRecord(**r) for r in saved['records']]})
+
+
 def final_reward(model: RearrangementModel, episode: EpisodeResult) -> float:
     return float(model.reward(np.array(episode.final_state)))
 
@@ -57,7 +62,11 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                                 Path(request.config_dir), request.log, request.seed)
     else:
         episodes = core_episodes(task, bool(request.option('failures', False)), request.seed, planner_path(request))
-    outcomes = play_cases(task, cases, episodes, request.log)
+    with request.progress('sgcm-table1', len(cases)) as steps:   # each case checkpointed, restored by --resume
+        outcomes = play_cases(task, cases, steps.checkpointed(
+            episodes, key=lambda index, case: case.name, encode=lambda pair: [e.to_dict() for e in pair],
+            decode=lambda saved: tuple(episode_from_dict(e) for e in saved),
+            describe=lambda pair: f'SGCM {pair[0].rounds} rounds, greedy {pair[1].rounds}'), request.log)
     data, acceptance = table1_results(outcomes, task, mode, cases)
     report = write_table1(outcomes, Path(request.run_dir))
     completed = sum(o.sgcm.completed for o in outcomes)
