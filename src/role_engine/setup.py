@@ -9,6 +9,9 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        # Report plug-in for scripts/report (see collab_tools.report_cli).
+        ('share/ament_index/resource_index/collab_report_plots',
+         ['resource/collab_report_plots/' + package_name]),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -36,7 +36,7 @@ SIMULATING = {
 }
 #: Modules that process images with OpenCV (perception, codecs, rendering helpers).
 IMAGE_PROCESSING = {
-    'collab_tools.core.image_codec', 'sgcm.core.perception', 'role_engine.core.top_view',
+    'collab_tools.core.image_codec', 'collab_tools.core.video', 'sgcm.core.perception', 'role_engine.core.top_view',
     'role_engine.core.tracking', 'role_engine.core.occupancy', 'role_engine.core.sdf',
     'pybullet_bridge.core.occupancy_map',
 }

@@ -16,6 +16,9 @@ Topics under ``<camera>/`` (relative to the bridge's namespace):
   rqt_image_view (transport "compressed") show them. Encoded only for a topic somebody
   subscribes to, and at most ``compressed_rate`` frames per simulated second (0 = every
   frame); a frame passed by the throttle goes out on both, so image and labels share stamps.
+  With only compressed subscribers a frame is rendered only when the throttle passes one, and a
+  frame rendered for ``get_frame`` goes out on them too (within the rate): an experiment records
+  its camera at a low rate (``compressed_rate``) for few renders of its own.
 * ``pose`` and ``label_legend``: latched.
 
 Service ``<camera>/get_frame`` (bridge_interfaces/GetCameraFrame, default services QoS): renders
@@ -137,6 +140,14 @@ class CameraPublisher:
         """Whether anybody subscribes to an image topic (raw or compressed)."""
         return any(pub.get_subscription_count() > 0 for pub in self._frame_pubs)
 
+    def _frame_used(self, sim_time: float) -> bool:
+        """Whether a frame rendered now reaches anybody: a raw subscriber, or a compressed one while the
+        throttle lets a frame through (a recorder of a 2 Hz compressed stream costs 2 renders a second)."""
+        if any(pub.get_subscription_count() > 0 for pub in (self.image_pub, self.labels_pub)):
+            return True
+        compressed = (self.image_compressed_pub, self.labels_compressed_pub)
+        return any(pub.get_subscription_count() > 0 for pub in compressed) and self.throttle.due(sim_time)
+
     def publish_due(self, scene: Scene, stamp: Time) -> None:
         """Publish the camera if due at the scene's time: camera_info always, a frame for subscribers."""
         sim_time = scene.sim_time
@@ -145,7 +156,7 @@ class CameraPublisher:
         self.next_time = sim_time + self.period
         frame_id = optical_frame(scene.scenario.camera.frame_id)
         info = self.camera_info(scene, stamp)
-        if not self.wants_frames():
+        if not self._frame_used(sim_time):
             self.info_pub.publish(info)
             return
         frame = scene.render()
@@ -183,6 +194,8 @@ class CameraPublisher:
         if request.with_labels:
             response.labels = image_msg(frame.labels, '16UC1', stamp, frame_id)
         response.camera_info = self.camera_info(scene, stamp)
+        # A frame rendered anyway feeds the compressed stream (a recorder's), within its rate.
+        self._publish_compressed(frame.rgb, frame.labels, seconds, stamp, frame_id)
         response.success = True
         response.message = f'frame at {seconds:.3f} s ({scene.renderer.name} renderer)'
         return response

@@ -32,6 +32,8 @@ text only). A zero stamp means "not (yet)" and is read as None.
   conflicts, the others sharing. A status without that list (older bags) counts as holding its one
   ``coalition_id``: a new coalition id without a releasing status in between is a conflict;
 * :func:`message_counts`, :func:`kind_totals` -- the channel traffic (Fig. 9's lower plots).
+* :func:`coalition_outcome` -- the report's line for a bag (registered with scripts/report through the
+  ament index resource ``collab_report_plots``): each leader's coalition, its cost and when it formed.
 """
 from __future__ import annotations
 
@@ -349,3 +351,36 @@ __all__ = ['BATCHES', 'CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTime
            'StatusRecord', 'commitment_check', 'commitments', 'conflicting_commitments', 'kind_totals',
            'leader_timeline', 'message_counts', 'read_coalition_bag', 'shared_commitments', 'status_record',
            'status_topic']
+
+
+def coalition_outcome(bag: Path, summary=None):
+    """formed (every leader set up a coalition; completed when a driving leader's task ended so),
+    each leader's members, cost and time to form; None for a bag without agent statuses."""
+    from collab_tools.core.run_outcome import Outcome
+    run = read_coalition_bag(bag)
+    leaders = run.leaders()
+    if not leaders:
+        return None
+    timelines = [leader_timeline(run, leader) for leader in leaders]
+    formed = all(t.formed is not None for t in timelines)
+    completed = formed and all(t.state == AgentState.COMPLETED.label for t in timelines)
+    parts = []
+    for t in timelines:
+        if t.formed is None:
+            parts.append(f'{t.robot}: no coalition ({t.state})')
+        else:
+            when = f', formed {t.formed_s:.2f} s after its search started' if t.formed_s is not None else ''
+            parts.append(f"{t.robot} with {', '.join(m for m in t.members if m != t.robot) or 'nobody'} "
+                         f'(cost {t.cost:g}{when}; now {t.state})')
+    return Outcome('coalitions', 'completed' if completed else 'formed' if formed else 'not formed',
+                   '; '.join(parts), passed=formed,
+                   figures={'leaders': [t.to_dict() for t in timelines], 'messages': len(run.messages)},
+                   checks={'formed': formed})
+
+
+def _register_outcome() -> None:
+    from collab_tools.core.run_outcome import register_outcome
+    register_outcome('coalitions', {STATUS_TYPE}, coalition_outcome)
+
+
+_register_outcome()

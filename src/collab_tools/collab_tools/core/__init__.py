@@ -14,7 +14,10 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | rosbag2 bags: reading, summaries, checks | :mod:`.bag_analysis`, :mod:`.bag_check` |
 | rosbag2 bags: repairing a killed recording (`bag_reindex`; MCAP records) | :mod:`.bag_repair`, :mod:`.mcap_records` |
 | what a recording lost (sequence gaps, queue depths) | :mod:`.recording_loss` |
-| report plots from bags | :mod:`.report_plots` |
+| report plots from bags (scene under trajectories, simulation colours, no empty plot) | :mod:`.report_plots` |
+| what a run achieved, first in every report (results, demos' outcomes, bag readers) | :mod:`.run_outcome` |
+| the simulated scene a bag's plots and videos draw (walls, obstacles, robots' colours) | :mod:`.scene_layout` |
+| a bag's top-view camera as MP4/GIF with markers drawn | :mod:`.video` |
 | images: JPEG/PNG transport, label images | :mod:`.image_codec` |
 | pinhole camera geometry (pixel <-> world) | :mod:`.camera_geometry` |
 | what a fiducial sees: FOV/range edge rule, line of sight past boxes (core and bridge alike) | :mod:`.visibility` |

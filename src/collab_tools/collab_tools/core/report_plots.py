@@ -29,15 +29,19 @@ matplotlib.use('Agg')
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from .bag_analysis import BagSummary, read_messages, read_timestamps  # noqa: E402
 from .bag_types import normalize_type_name  # noqa: E402
+from .scene_layout import Rect, SceneLayout, scene_of_bag  # noqa: E402
 
 __all__ = [
     'PlotFn',
     'PlotError',
     'registered_plots',
     'register_plot',
+    'draw_scene',
+    'robot_colours',
     'unregister_plot',
     'write_plots',
 ]
@@ -46,6 +50,7 @@ PlotFn = Callable[[Path, BagSummary, Path], list[Path]]
 
 BODY_STATES_TYPE = 'bridge_interfaces/msg/BodyStates'
 TWIST_TYPE = 'geometry_msgs/msg/Twist'
+ROLE_ASSIGNMENT_TYPE = 'role_interfaces/msg/RoleAssignment'
 MOBILE_ROBOT_KIND = 'mobile_robot'
 
 
@@ -120,56 +125,130 @@ def _slug(text: str) -> str:
     return re.sub(r'[^A-Za-z0-9]+', '_', text).strip('_') or 'root'
 
 
+def _figure(width: float, height: float, **keywords):
+    """(fig, ax) with a constrained layout: long titles and outside legends fit."""
+    return plt.subplots(figsize=(width, height), layout='constrained', **keywords)
+
+
 def _save(fig, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=100, bbox_inches='tight')   # nothing clipped, whatever the legend's size
     plt.close(fig)
     return path
+
+
+def _legend_outside(ax, **keywords) -> None:
+    """A legend right of the axes, where it covers no data."""
+    ax.legend(loc='upper left', bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize='small', **keywords)
 
 
 def _stamp_s(summary: BagSummary, ns: int) -> float:
     return (ns - summary.start_ns) / 1e9
 
 
+def _rect_patch(rect: Rect, **keywords) -> Rectangle:
+    (cx, cy), (sx, sy) = rect.center, rect.size
+    return Rectangle((cx - sx / 2, cy - sy / 2), sx, sy, angle=math.degrees(rect.yaw), rotation_point='center',
+                     **keywords)
+
+
+def draw_scene(ax, layout: SceneLayout | None) -> None:
+    """Walls, obstacles (a map's boxes too), tables with their grids, movable boxes and targets, in the
+    simulation's colours, under whatever is drawn next (zorder 1)."""
+    if layout is None:
+        return
+    for rect in layout.walls:
+        ax.add_patch(_rect_patch(rect, facecolor=rect.color, edgecolor='none', zorder=1))
+    for rect in layout.obstacles:
+        ax.add_patch(_rect_patch(rect, facecolor=rect.color, edgecolor='black', linewidth=0.3, zorder=1))
+    for rect in layout.movable_boxes:
+        ax.add_patch(_rect_patch(rect, facecolor=rect.color, edgecolor='black', hatch='//', alpha=0.6, zorder=1))
+    for table in layout.tables:
+        (cx, cy), (sx, sy) = table.center, table.size
+        ax.add_patch(Rectangle((cx - sx / 2, cy - sy / 2), sx, sy, facecolor=table.color, edgecolor='black',
+                               alpha=0.5, zorder=1))
+        for col in range(1, table.cols):
+            x = cx - sx / 2 + col * sx / table.cols
+            ax.plot([x, x], [cy - sy / 2, cy + sy / 2], color='black', linewidth=0.5, zorder=1)
+        for row in range(1, table.rows):
+            y = cy + sy / 2 - row * sy / table.rows
+            ax.plot([cx - sx / 2, cx + sx / 2], [y, y], color='black', linewidth=0.5, zorder=1)
+    for target in layout.targets:
+        ax.add_patch(Circle(target.center, target.radius, facecolor=target.color, edgecolor='black', zorder=1))
+        ax.annotate(target.name, target.center, xytext=(4, 4), textcoords='offset points', fontsize=7, zorder=1)
+
+
+def robot_colours(names, layout: SceneLayout | None) -> dict[str, tuple]:
+    """Each robot's colour in the simulation (from the scenario), else one of matplotlib's cycle."""
+    cycle = plt.rcParams['axes.prop_cycle'].by_key().get('color', ['C0'])
+    colours = {}
+    for index, name in enumerate(sorted(names)):
+        colour = layout.robot_color(name) if layout is not None else None
+        colours[name] = tuple(colour) if colour is not None else cycle[index % len(cycle)]
+    return colours
+
+
+def formation_targets(bag: Path, summary: BagSummary) -> dict[str, tuple[float, float]]:
+    """robot -> goal of the last assigned round of any RoleAssignment topic ({} without one)."""
+    goals: dict[str, tuple[float, float]] = {}
+    topics = summary.topics_of_type(ROLE_ASSIGNMENT_TYPE)
+    if not topics:
+        return goals
+    best = -1
+    for _topic, _ns, msg in read_messages(bag, topics):
+        if msg.status == 'assigned' and msg.round >= best:
+            best = msg.round
+            goals = {r: (float(x), float(y)) for r, x, y in zip(msg.robots, msg.goal_x, msg.goal_y)}
+    return goals
+
+
 # ---------------------------------------------------------------- built-ins
-def plot_message_rates(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
-    """Messages per second over time, one line per topic, binned."""
-    topics = [t.topic for t in summary.topics if t.count]
-    fig, ax = plt.subplots(figsize=(10, 5))
-    duration = max(summary.duration_s, 0.0)
+def _rate_bins(duration: float) -> tuple[float, int]:
     if duration <= 0:
-        bin_s, nbins = 1.0, 1
-    else:
-        # ~1 s bins; finer for short bags (>= ~10 bins), coarser for long ones (<= 200 bins).
-        bin_s = 1.0 if duration >= 10 else duration / 10
-        if duration / bin_s > 200:
-            bin_s = duration / 200
-        nbins = max(1, math.ceil(duration / bin_s - 1e-9))
+        return 1.0, 1
+    # ~1 s bins; finer for short bags (>= ~10 bins), coarser for long ones (<= 200 bins).
+    bin_s = 1.0 if duration >= 10 else duration / 10
+    if duration / bin_s > 200:
+        bin_s = duration / 200
+    return bin_s, max(1, math.ceil(duration / bin_s - 1e-9))
+
+
+def plot_message_rates(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
+    """Messages per second over time, one line per topic, binned, on a log scale (so /clock's
+    hundreds per second do not flatten a 1 Hz status); no plot for a bag without messages."""
+    topics = [t.topic for t in summary.topics if t.count]
+    if not topics:
+        return []
+    bin_s, nbins = _rate_bins(max(summary.duration_s, 0.0))
     edges = np.arange(nbins + 1) * bin_s
-    edges[-1] = max(edges[-1], duration)  # the last message belongs in the last bin
+    edges[-1] = max(edges[-1], summary.duration_s)  # the last message belongs in the last bin
     times: dict[str, list[float]] = {t: [] for t in topics}
     for topic, ns in read_timestamps(bag, topics):
         times[topic].append(_stamp_s(summary, ns))
     centers = (edges[:-1] + edges[1:]) / 2
-    for topic in topics:
+    fig, ax = _figure(11, 5 + 0.12 * max(0, len(topics) - 25))
+    cycle = plt.rcParams['axes.prop_cycle'].by_key().get('color', ['C0'])
+    for index, topic in enumerate(topics):
         counts, _ = np.histogram(np.asarray(times[topic]), bins=edges)
-        ax.step(centers, counts / bin_s, where='mid', label=f'{topic} ({len(times[topic])})')
-    ax.set_title(f'Message rates — {summary.path.name} (bins of {bin_s:.3g} s)')
+        rates = np.where(counts > 0, counts / bin_s, np.nan)   # log scale: an empty bin is a gap
+        style = ('-', '--', ':', '-.')[(index // len(cycle)) % 4]
+        ax.step(centers, rates, where='mid', linestyle=style, label=f'{topic} ({len(times[topic])})')
+    ax.set_yscale('log')
+    ax.set_title(f'Message rates — {summary.path.name} (bins of {bin_s:.3g} s, log scale)')
     ax.set_xlabel('time since bag start [s]')
     ax.set_ylabel('rate [messages/s]')
-    ax.set_ylim(bottom=0)
-    ax.grid(True, alpha=0.3)
-    if topics:
-        ax.legend(fontsize='small', loc='best')
-    else:
-        ax.text(0.5, 0.5, 'no messages', ha='center', va='center', transform=ax.transAxes)
+    ax.grid(True, which='both', alpha=0.3)
+    _legend_outside(ax, ncols=1 if len(topics) <= 30 else 2)
     return [_save(fig, out_dir / 'message_rates.png')]
 
 
 def plot_trajectories(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
-    """x-y path of every mobile_robot body in BodyStates, start/end markers, equal aspect."""
+    """x-y path of every mobile_robot body in BodyStates, in its simulation colour, over the scene's
+    walls, obstacles and targets, with start/end markers and formation targets; equal aspect.
+    A topic without mobile robots gets no plot."""
     written: list[Path] = []
     topics = summary.topics_of_type(BODY_STATES_TYPE)
+    layout = scene_of_bag(bag) if topics else None
+    goals = formation_targets(bag, summary) if topics else {}
     for topic in topics:
         paths: dict[str, list[tuple[float, float]]] = {}
         for _topic, _ns, msg in read_messages(bag, [topic]):
@@ -177,32 +256,44 @@ def plot_trajectories(bag: Path, summary: BagSummary, out_dir: Path) -> list[Pat
                 if body.kind != MOBILE_ROBOT_KIND:
                     continue
                 paths.setdefault(body.name, []).append((body.pose.position.x, body.pose.position.y))
-        fig, ax = plt.subplots(figsize=(7, 7))
+        if not paths:
+            continue
+        colours = robot_colours(paths, layout)
+        fig, ax = _figure(8.5, 7)
+        draw_scene(ax, layout)
         for name in sorted(paths):
             xy = np.asarray(paths[name])
-            (line,) = ax.plot(xy[:, 0], xy[:, 1], '-', label=name)
-            ax.plot(xy[0, 0], xy[0, 1], 'o', color=line.get_color(), markersize=8)
-            ax.plot(xy[-1, 0], xy[-1, 1], 's', color=line.get_color(), markersize=8)
-        if paths:
-            # Marker legend entries without colour meaning.
-            ax.plot([], [], 'o', color='gray', label='start')
-            ax.plot([], [], 's', color='gray', label='end')
-            ax.legend(fontsize='small', loc='best')
-        else:
-            ax.text(0.5, 0.5, f'no {MOBILE_ROBOT_KIND} bodies', ha='center', va='center', transform=ax.transAxes)
-        ax.set_aspect('equal', adjustable='datalim')
-        ax.set_title(f'Robot trajectories ({topic})')
+            colour = colours[name]
+            ax.plot(xy[:, 0], xy[:, 1], '-', color=colour, label=name, zorder=3)
+            ax.plot(xy[0, 0], xy[0, 1], 'o', color=colour, markersize=8, zorder=4)
+            ax.plot(xy[-1, 0], xy[-1, 1], 's', color=colour, markersize=8, markeredgecolor='black', zorder=4)
+            if name in goals:
+                ax.plot(*goals[name], marker='*', color=colour, markersize=15, markeredgecolor='black', zorder=5)
+        # Marker legend entries without colour meaning.
+        ax.plot([], [], 'o', color='gray', label='start')
+        ax.plot([], [], 's', color='gray', markeredgecolor='black', label='end')
+        if goals:
+            ax.plot([], [], '*', color='gray', markersize=12, markeredgecolor='black', label='formation target')
+        if layout is not None and layout.bounds is not None:
+            xmin, ymin, xmax, ymax = layout.bounds
+            margin = 0.1 + (layout.walls[0].size[1] if layout.walls else 0.0)
+            ax.set_xlim(xmin - margin, xmax + margin)
+            ax.set_ylim(ymin - margin, ymax + margin)
+        ax.set_aspect('equal', adjustable='box')
+        ax.set_title(f'Robot trajectories ({topic})' + ('' if layout else ' — scene unknown'))
         ax.set_xlabel('x [m]')
         ax.set_ylabel('y [m]')
         ax.grid(True, alpha=0.3)
+        _legend_outside(ax)
         suffix = '' if len(topics) == 1 else f'_{_slug(topic)}'
         written.append(_save(fig, out_dir / f'trajectories{suffix}.png'))
     return written
 
 
 def plot_velocities(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
-    """Commanded linear.x and angular.z per Twist (cmd_vel) topic over time."""
-    topics = summary.topics_of_type(TWIST_TYPE)
+    """Commanded linear.x and angular.z per Twist (cmd_vel) topic over time, each robot in its
+    simulation colour; no plot when no command was recorded."""
+    topics = [t.topic for t in summary.topics if t.type_name == TWIST_TYPE and t.count]
     if not topics:
         return []
     data: dict[str, tuple[list[float], list[float], list[float]]] = {t: ([], [], []) for t in topics}
@@ -211,18 +302,20 @@ def plot_velocities(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]
         t.append(_stamp_s(summary, ns))
         vx.append(msg.linear.x)
         wz.append(msg.angular.z)
-    fig, (ax_v, ax_w) = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+    robot_of = {topic: topic.strip('/').split('/')[0] for topic in topics}
+    colours = robot_colours(set(robot_of.values()), scene_of_bag(bag))
+    fig, (ax_v, ax_w) = plt.subplots(2, 1, sharex=True, figsize=(11, 6), layout='constrained')
     for topic in topics:
         t, vx, wz = data[topic]
-        ax_v.step(t, vx, where='post', label=topic)
-        ax_w.step(t, wz, where='post', label=topic)
+        ax_v.step(t, vx, where='post', label=topic, color=colours[robot_of[topic]])
+        ax_w.step(t, wz, where='post', label=topic, color=colours[robot_of[topic]])
     ax_v.set_title(f'Commanded velocities — {summary.path.name}')
     ax_v.set_ylabel('linear.x [m/s]')
     ax_w.set_ylabel('angular.z [rad/s]')
     ax_w.set_xlabel('time since bag start [s]')
     for ax in (ax_v, ax_w):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize='small', loc='best')
+    _legend_outside(ax_v)
     return [_save(fig, out_dir / 'velocities.png')]
 
 

@@ -21,6 +21,9 @@ contacts, and per robot of the last round its role, goal, ``arrival_time`` (s fr
 round's role start to the player's ``arrived`` message), ``final_error`` (ground-truth distance
 to the goal at the end) and the tracking error (ground truth vs the commanded role at the same
 time).
+
+:func:`formation_outcome` is the report's line for such a bag (registered with scripts/report through
+the ament index resource ``collab_report_plots``): formed or not, how many robots arrived, when.
 """
 from __future__ import annotations
 
@@ -29,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from collab_tools.core.bag_analysis import read_messages
+from collab_tools.core.bag_analysis import BagSummary, read_messages
+from collab_tools.core.run_outcome import Outcome, register_outcome
 
 from ..core.trajectory import interpolate
 from .path_measures import ObstacleBox, obstacle_clearances, separation_measures
@@ -177,3 +181,42 @@ def formation_results(log: FormationLog, radii: dict[str, float], arrival_tolera
                     'final_status': final.status if final else 'no assignment', 'arrival_tolerance': arrival_tolerance})
     return results
 
+
+# ----------------------------------------------------------------------------------- outcome
+ASSIGNMENT_TYPE = 'role_interfaces/msg/RoleAssignment'
+
+
+def formation_outcome(bag: Path, summary: BagSummary | None = None) -> Outcome | None:
+    """formed (the last round assigned roles and every robot of it arrived) or not, with the arrivals,
+    the time to form (last arrival after the round's roles started) and the largest final distance to
+    a goal (ground truth); None for a bag without assignments."""
+    robots = sorted({r for _, _, msg in read_messages(bag, [ASSIGNMENT]) for r in msg.robots})
+    log = read_formation_bag(bag, robots)
+    if not log.assignments:
+        return None
+    final = max(log.assignments, key=lambda a: a.round)
+    rounds = len({a.round for a in log.assignments})
+    if final.status != 'assigned':
+        return Outcome('roles', 'not formed', f'round {final.round} {final.status}: {final.message}'[:300],
+                       passed=False, figures={'rounds': rounds, 'final_status': final.status},
+                       checks={'formed': False})
+    arrivals = {}
+    for robot in final.goals:
+        arrived = sorted((r.stamp for r in log.roles.get(robot, []) if r.round == final.round and r.arrived))
+        if arrived:
+            arrivals[robot] = arrived[0]
+    errors = {robot: float(np.hypot(*(log.truth[robot][-1] - np.asarray(goal))))
+              for robot, goal in final.goals.items() if len(log.truth.get(robot, ()))}
+    formed = len(arrivals) == len(final.goals)
+    start = final.start_time if final.start_time is not None else final.stamp
+    time_to_form = max(arrivals.values()) - start if formed and arrivals else None
+    text = (f'{len(arrivals)}/{len(final.goals)} robots arrived at their roles in round {final.round}'
+            + (f' after {time_to_form:.1f} s' if time_to_form is not None else '')
+            + (f'; largest final distance to a goal {max(errors.values()):.2f} m' if errors else ''))
+    return Outcome('roles', 'formed' if formed else 'not formed', text, passed=formed,
+                   figures={'rounds': rounds, 'arrived': sorted(arrivals), 'time_to_form_s': time_to_form,
+                            'final_error_m': errors},
+                   checks={'formed': formed})
+
+
+register_outcome('roles_formation', {ASSIGNMENT_TYPE}, formation_outcome)

@@ -1,9 +1,10 @@
-"""scripts/report plot for SGCM bags: the rounds as the leader saw and announced them.
+"""scripts/report plug-in for SGCM bags: the task's outcome and the rounds as the leader saw and announced them.
 
-For a bag with /sgcm/guidance: per round, the leader's predicted values v_0^A, v_0^B and
-her planning time, and a timeline of both arms' moves (failed moves and deviations from
-the recommendation marked). Registered through the ament index resource
-``collab_report_plots`` (see collab_tools.report_cli).
+For a bag with /sgcm/guidance: the outcome (goal reached or why the task ended, in how many
+rounds, how many follower deviations and failed moves), and a plot of, per round, the leader's
+predicted values v_0^A, v_0^B and her planning time, and a timeline of both arms' moves (failed
+moves and deviations from the recommendation marked). Registered through the ament index
+resource ``collab_report_plots`` (see collab_tools.report_cli).
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 from collab_tools.core.bag_analysis import BagSummary, read_messages  # noqa: E402
 from collab_tools.core.report_plots import register_plot  # noqa: E402
+from collab_tools.core.run_outcome import Outcome, register_outcome  # noqa: E402
 
 GUIDANCE_TYPE = 'sgcm_interfaces/msg/Guidance'
 
@@ -24,7 +26,8 @@ def _move_text(move) -> str:
     return '-' if move.empty else f'{move.colour} {move.source_cell}->{move.target_cell}'
 
 
-def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
+def _read_rounds(bag: Path):
+    """(guidance of every round, follower reports by round, the final guidance or None)."""
     guidance, reports, final = [], {}, None
     for topic, _, msg in read_messages(bag, ['/sgcm/guidance', '/sgcm/follower_report']):
         if topic == '/sgcm/guidance':
@@ -34,6 +37,35 @@ def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path
                 guidance.append(msg)
         else:
             reports[msg.round] = msg
+    return guidance, reports, final
+
+
+def sgcm_outcome(bag: Path, summary: BagSummary) -> Outcome | None:
+    """completed (goal reached) or why the leader ended the task, with rounds, deviations and failed moves."""
+    guidance, reports, final = _read_rounds(bag)
+    if not guidance and final is None:
+        return None
+    rounds = len(guidance)
+    deviations = sum(1 for r in reports.values() if r.deviated)
+    failed = sum(1 for g in guidance if not g.leader_move.empty and not g.leader_move_succeeded)
+    failed += sum(1 for r in reports.values() if not r.move.empty and not r.succeeded)
+    strategy = f'{guidance[0].strategy}, T={guidance[0].horizon}' if guidance else 'no rounds'
+    if final is None:
+        status, ending = 'incomplete', 'the leader never ended the task (no final guidance)'
+    elif final.task_complete:
+        status, ending = 'completed', 'goal reached'
+    else:
+        status, ending = 'ended', final.status
+    return Outcome('sgcm', status, f'{ending} in {rounds} round{"s" * (rounds != 1)} ({strategy}); '
+                   f'{deviations} follower deviation{"s" * (deviations != 1)}, {failed} failed move{"s" * (failed != 1)}',
+                   passed=final is not None and bool(final.task_complete),
+                   figures={'rounds': rounds, 'deviations': deviations, 'failed_moves': failed,
+                            'ending': ending},
+                   checks={'goal_reached': final is not None and bool(final.task_complete)})
+
+
+def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path]:
+    guidance, reports, final = _read_rounds(bag)
     if not guidance:
         return []
     rounds = [g.round for g in guidance]
@@ -66,11 +98,13 @@ def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path
     timeline.set_ylim(-0.7, 1.7)
     timeline.set_xlabel('round')
     timeline.set_xticks(rounds)
+    timeline.set_xlim(min(rounds) - 0.8, max(rounds) + 0.8)
     fig.tight_layout()
     path = Path(out_dir) / 'sgcm_rounds.png'
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches='tight')
     plt.close(fig)
     return [path]
 
 
 register_plot('sgcm_rounds', {GUIDANCE_TYPE}, plot_sgcm_rounds)
+register_outcome('sgcm', {GUIDANCE_TYPE}, sgcm_outcome)
