@@ -193,7 +193,7 @@ def test_invalid_scenario_names_the_field(build, expected_prefix):
 def test_map_image_that_is_not_an_image(tmp_path):
     (tmp_path / 'map.png').write_text('not a png')
     data = scenario_dict(obstacles={'map': {'image': 'map.png', 'resolution': 0.05, 'origin': [0, 0]}})
-    with pytest.raises(ScenarioError, match=r"^obstacles\.map\.image: cannot read"):
+    with pytest.raises(ScenarioError, match=r"^obstacles\.map\.image: image file .*: not a PNG"):
         parse_scenario(data, tmp_path)
 
 

@@ -126,7 +126,7 @@ def test_a_sensor_view_is_both_fields_in_range(library, sensor, message):
     (lambda d: d['obstacles']['boxes'][0].update(size=[0.1, -1.0]), r'obstacles\.boxes\[0\]\.size\[1\]: must be > 0'),
     (lambda d: d['obstacles'].update(walls=[]), r'obstacles\.walls: unknown field'),
     (lambda d: d['obstacles'].update(map={'image': 'nowhere.png', 'resolution': 0.1, 'origin': [0, 0]}),
-     r"obstacles\.map\.image: image file .*nowhere\.png' does not exist"),
+     r"obstacles\.map\.image: image file .*nowhere\.png': does not exist"),
     (lambda d: d.update(team='nowhere.yaml'), r"team: no file 'nowhere\.yaml' next to the scenario nor in"),
 ])
 def test_obstacle_and_team_errors_name_the_field(config_dir, tmp_path, edit, message):

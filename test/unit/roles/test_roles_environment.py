@@ -52,7 +52,7 @@ def test_bad_map_files_name_the_field(tmp_path, change, message):
 def test_unreadable_image_and_missing_file_are_clear_errors(tmp_path):
     path = write_map(tmp_path, GOOD_MAP)
     (tmp_path / 'm.png').write_text('not an image')
-    with pytest.raises(ValueError, match='cannot read'):
+    with pytest.raises(ValueError, match='m.png.: not a PNG'):
         load_map_file(path)
     with pytest.raises(ValueError, match='does not exist'):
         load_map_file(tmp_path / 'nope.yaml')

@@ -92,7 +92,7 @@ def test_origin_yaw_rotates_the_map_about_its_bottom_left_corner(tmp_path):
     ({'free_thresh': 0.7}, r'm\.yaml\.free_thresh: must be <= occupied_thresh 0.65'),
     ({'mode': 'scale'}, r'm\.yaml\.mode: must be trinary'),
     ({'resolution': 0.0}, r'm\.yaml\.resolution: must be > 0'),
-    ({'image': 'missing.png'}, r"m\.yaml\.image: image file .*missing\.png' does not exist"),
+    ({'image': 'missing.png'}, r"m\.yaml\.image: image file .*missing\.png': does not exist"),
     ({'colour': 'red'}, r'm\.yaml.*colour'),
 ])
 def test_bad_fields_are_refused_naming_them(tmp_path, change, message):

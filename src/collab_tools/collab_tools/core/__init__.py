@@ -8,6 +8,7 @@ trees are read and written with the modules below, by nodes, experiments and rep
 |---|---|
 | the one input-error type (exit code 2) | :mod:`.errors` (``ConfigurationError``) |
 | validating readers for YAML fields (dotted paths) | :mod:`.fields` |
+| reading input files: regular files only, size/path/UTF-8/YAML-alias/image-size bounds | :mod:`.input_files` |
 | node parameters as data (type, range, dynamic) | :mod:`.settings`; the tool nodes' in :mod:`.tool_settings` |
 | rosbag2 bags: writing (MCAP, metadata v9) | :mod:`.bag_writer`, :mod:`.bag_storage` (presets, chunks) |
 | rosbag2 bags: message types and definitions | :mod:`.bag_types` |

@@ -16,9 +16,9 @@ import re
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, TypeVar
 
-import yaml
-
+from . import input_files
 from .errors import ConfigurationError
+from .settings import echo
 
 #: Names of robots, objects, sensors, tasks: they become ROS namespaces and frame ids.
 NAME_PATTERN = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
@@ -52,33 +52,17 @@ def type_name(value: Any) -> str:
 # --- files and text ----------------------------------------------------------------------------
 
 def read_yaml_file(path: str | Path, what: str = 'file', error: ErrorType = ConfigurationError) -> Any:
-    """The parsed content of a YAML file; ``<what> '<path>': ...`` when it is missing, unreadable,
-    not YAML or empty."""
-    path = Path(path)
-    where = f"{what} '{path}'"
-    if not path.exists():
-        raise error(f'{where}: does not exist')
-    try:
-        text = path.read_text(encoding='utf-8')
-    except (OSError, UnicodeDecodeError) as err:
-        raise error(f'{where}: cannot read ({getattr(err, "strerror", None) or err})') from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise error(f'{where}: invalid YAML ({err})') from None
-    if data is None:
-        raise error(f'{where}: file is empty')
-    return data
+    """The parsed content of a YAML file; ``<what> '<path>': ...`` when it is missing, no regular
+    file, too big, not UTF-8, not YAML, beyond the YAML bounds or empty (:mod:`.input_files`)."""
+    return input_files.read_yaml_file(path, what, error)
 
 
 def parse_yaml_text(text: Any, error: ErrorType = ConfigurationError) -> Any:
-    """A YAML document given as text (e.g. a string parameter); the caller names where it came from."""
+    """A YAML document given as text (e.g. a string parameter), within the same bounds as a file;
+    the caller names where it came from."""
     if not isinstance(text, str):
         raise error(f'must be YAML text (got {type_name(text)})')
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise error(f'invalid YAML ({err})') from None
+    return input_files.load_yaml_text(text, error)
 
 
 def load_config_file(path: str | Path, read: Callable[[Any], _Loaded],
@@ -89,7 +73,8 @@ def load_config_file(path: str | Path, read: Callable[[Any], _Loaded],
         return read(data)
     except error as err:
         message = str(err)
-        raise error(message if message.startswith(str(path)) else f'{path}: {message}') from None
+        shown = input_files.shown_path(path)
+        raise error(message if message.startswith(shown) else f'{shown}: {message}') from None
 
 
 # --- values ------------------------------------------------------------------------------------
@@ -112,18 +97,18 @@ def check_number(value: Any, path: str, *, gt: float | None = None, ge: float | 
     """``value`` as a finite float within the given bounds."""
     # bool is an int subclass; `true` where a number belongs is always a typo.
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise fail(path, f'must be a number (got {type_name(value)} {value!r})', error)
+        raise fail(path, f'must be a number (got {type_name(value)} {echo(value)})', error)
     number = float(value)
     if not math.isfinite(number):
-        raise fail(path, f'must be finite (got {number})', error)
+        raise fail(path, f'must be finite (got {echo(number)})', error)
     if gt is not None and not number > gt:
-        raise fail(path, f'must be > {gt} (got {number})', error)
+        raise fail(path, f'must be > {gt} (got {echo(number)})', error)
     if ge is not None and not number >= ge:
-        raise fail(path, f'must be >= {ge} (got {number})', error)
+        raise fail(path, f'must be >= {ge} (got {echo(number)})', error)
     if lt is not None and not number < lt:
-        raise fail(path, f'must be < {lt} (got {number})', error)
+        raise fail(path, f'must be < {lt} (got {echo(number)})', error)
     if le is not None and not number <= le:
-        raise fail(path, f'must be <= {le} (got {number})', error)
+        raise fail(path, f'must be <= {le} (got {echo(number)})', error)
     return number
 
 
@@ -131,11 +116,11 @@ def check_int(value: Any, path: str, *, ge: int | None = None, le: int | None = 
               error: ErrorType = ConfigurationError) -> int:
     """``value`` as an int within ``[ge, le]``."""
     if isinstance(value, bool) or not isinstance(value, int):
-        raise fail(path, f'must be an integer (got {type_name(value)} {value!r})', error)
+        raise fail(path, f'must be an integer (got {type_name(value)} {echo(value)})', error)
     if ge is not None and value < ge:
-        raise fail(path, f'must be >= {ge} (got {value})', error)
+        raise fail(path, f'must be >= {ge} (got {echo(value)})', error)
     if le is not None and value > le:
-        raise fail(path, f'must be <= {le} (got {value})', error)
+        raise fail(path, f'must be <= {le} (got {echo(value)})', error)
     return int(value)
 
 
@@ -143,7 +128,7 @@ def check_vector(value: Any, path: str, length: int, *, error: ErrorType = Confi
                  **bounds: float | None) -> tuple[float, ...]:
     """``value`` as a tuple of ``length`` floats, each within ``bounds``."""
     if not isinstance(value, (list, tuple)) or len(value) != length:
-        raise fail(path, f'must be a list of {length} numbers (got {value!r})', error)
+        raise fail(path, f'must be a list of {length} numbers (got {echo(value)})', error)
     return tuple(check_number(item, join_path(path, i), error=error, **bounds) for i, item in enumerate(value))
 
 
@@ -155,9 +140,9 @@ def check_color(value: Any, path: str, error: ErrorType = ConfigurationError) ->
 def check_name(value: Any, path: str, error: ErrorType = ConfigurationError) -> str:
     """A name matching :data:`NAME_PATTERN`."""
     if not isinstance(value, str):
-        raise fail(path, f'must be a string (got {type_name(value)} {value!r})', error)
+        raise fail(path, f'must be a string (got {type_name(value)} {echo(value)})', error)
     if not NAME_PATTERN.match(value):
-        raise fail(path, f"invalid name '{value}' (must match [A-Za-z][A-Za-z0-9_]*)", error)
+        raise fail(path, f"invalid name {echo(value)} (must match [A-Za-z][A-Za-z0-9_]*)", error)
     return value
 
 
@@ -177,7 +162,7 @@ class Fields:
         self.data = require_mapping(data, path, error)
         for key in self.data:
             if key not in self.allowed:
-                raise fail(join_path(path, str(key)), f"unknown field (allowed: {', '.join(self.allowed)})", error)
+                raise fail(join_path(path, echo(key)[1:-1] if isinstance(key, str) else echo(key)), f"unknown field (allowed: {', '.join(self.allowed)})", error)
 
     def path_of(self, key: str | int) -> str:
         return join_path(self.path, key)
@@ -212,7 +197,7 @@ class Fields:
             return default
         value = self.raw(key)
         if not isinstance(value, bool):
-            raise self.fail(key, f'must be true or false (got {type_name(value)} {value!r})')
+            raise self.fail(key, f'must be true or false (got {type_name(value)} {echo(value)})')
         return value
 
     def string(self, key: str, default: Any = REQUIRED, *, allow_empty: bool = False) -> str:
@@ -221,7 +206,7 @@ class Fields:
         value = self.raw(key)
         if not isinstance(value, str) or (not value and not allow_empty):
             kind = 'a string' if allow_empty else 'a non-empty string'
-            raise self.fail(key, f'must be {kind} (got {type_name(value)} {value!r})')
+            raise self.fail(key, f'must be {kind} (got {type_name(value)} {echo(value)})')
         return value
 
     def choice(self, key: str, choices: Iterable[str], default: Any = REQUIRED) -> str:
@@ -230,7 +215,7 @@ class Fields:
         allowed = tuple(choices)
         value = self.raw(key)
         if value not in allowed:
-            raise self.fail(key, f"must be one of {', '.join(allowed)} (got {value!r})")
+            raise self.fail(key, f"must be one of {', '.join(allowed)} (got {echo(value)})")
         return value
 
     def name(self, key: str = 'name', default: Any = REQUIRED) -> str:

@@ -18,6 +18,7 @@ the bad values against the schema directly, without starting a node.
 from __future__ import annotations
 
 import math
+import reprlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -35,8 +36,21 @@ KIND_WORDS = {'bool': 'true or false', 'integer': 'an integer', 'double': 'a num
               'double_array': 'a list of numbers', 'string_array': 'a list of strings'}
 
 
+_ECHO = reprlib.Repr()
+_ECHO.maxlevel, _ECHO.maxstring, _ECHO.maxlong, _ECHO.maxother = 3, ECHO_LIMIT, 40, ECHO_LIMIT
+for _name in ('maxtuple', 'maxlist', 'maxarray', 'maxdict', 'maxset', 'maxfrozenset', 'maxdeque'):
+    setattr(_ECHO, _name, 8)
+
+
 def echo(value: Any) -> str:
-    text = repr(value)
+    """``repr(value)`` cut to ECHO_LIMIT characters, in bounded time: only the first elements and
+    levels of a collection are looked at (a YAML alias bomb shares one list a billion times)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 128:
+        return f'<{value.bit_length()}-bit integer>'
+    try:
+        text = _ECHO.repr(value)
+    except (ValueError, RecursionError, MemoryError):     # an unprintable value
+        return f'<{type(value).__name__}>'
     return text if len(text) <= ECHO_LIMIT else text[:ECHO_LIMIT - 3] + '...'
 
 

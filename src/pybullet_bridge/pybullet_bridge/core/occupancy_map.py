@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.fields import Fields, fail, read_yaml_file
+from collab_tools.core.input_files import read_image_bytes, shown_path
 
 from .errors import ScenarioError
 
@@ -65,27 +66,29 @@ def occupancy_to_rectangles(occupied: np.ndarray) -> list[tuple[int, int, int, i
     return sorted(rectangles)
 
 
-def read_grey_image(image_path: Path, field_path: str) -> np.ndarray:
+def _decode_image(image_path: Path, field_path: str, flags: int, error) -> np.ndarray:
+    """The image file ``image_path`` decoded with ``flags``, its size checked from its header before
+    decoding (collab_tools.core.input_files: regular file, size and pixel bounds, truncation)."""
+    where = f'{field_path}: image file'
+    data, width, height = read_image_bytes(image_path, where, error)
+    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), flags)
+    if image is None or image.shape[:2] != (height, width):
+        raise error(f"{where} '{shown_path(image_path)}': cannot be decoded (a damaged or truncated image)")
+    return image
+
+
+def read_grey_image(image_path: Path, field_path: str, error=ScenarioError) -> np.ndarray:
     """The occupancy image a map field names, as 8-bit grey; errors start with ``field_path``."""
-    if not image_path.is_file():
-        raise fail(field_path, f"image file '{image_path}' does not exist", error=ScenarioError)
-    grey = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE)
-    if grey is None:
-        raise fail(field_path, f"cannot read '{image_path}' as an image", error=ScenarioError)
-    return grey
+    return _decode_image(Path(image_path), field_path, cv2.IMREAD_GRAYSCALE, error)
 
 
 def read_shade_image(image_path: Path, field_path: str, error=ScenarioError) -> np.ndarray:
     """The image as map_server sees it: mean of the colour channels (alpha ignored), 0..255 floats."""
-    if not image_path.is_file():
-        raise fail(field_path, f"image file '{image_path}' does not exist", error=error)
-    image = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
-    if image is None or image.size == 0:
-        raise fail(field_path, f"cannot read '{image_path}' as an image", error=error)
-    image = image.astype(float) / (257.0 if image.dtype == np.uint16 else 1.0)
-    if image.ndim == 3:
-        image = image[:, :, :3].mean(axis=2) if image.shape[2] >= 3 else image[:, :, 0]
-    return image
+    image = _decode_image(Path(image_path), field_path, cv2.IMREAD_UNCHANGED, error)
+    scale = 257.0 if image.dtype == np.uint16 else 1.0
+    if image.ndim == 3:    # the mean straight from the integers: no float copy of every channel
+        image = image[:, :, :3].mean(axis=2, dtype=float) if image.shape[2] >= 3 else image[:, :, 0]
+    return image.astype(float) / scale
 
 
 @dataclass(frozen=True)

@@ -205,7 +205,7 @@ def load_map_file(path: str | Path) -> Environment:
         return environment_from_nav2(nav2_map_from_data(data, path, where, error=RoleEngineError,
                                                         extra_fields=MAP_EXTRA_FIELDS), where)
     fields = Fields(data, where, allowed=MAP_FILE_FIELDS, error=RoleEngineError)
-    grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'))
+    grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'), RoleEngineError)
     resolution = fields.number('resolution', gt=0.0)
     origin = fields.vector('origin', 2)
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)
