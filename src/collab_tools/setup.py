@@ -20,7 +20,9 @@ setup(
         'console_scripts': [
             'bag_recorder = collab_tools.bag_recorder_node:main',
             'bag_reindex = collab_tools.core.bag_repair:main',
+            'live_view = collab_tools.live_view_node:main',
             'scripted_driver = collab_tools.scripted_driver_node:main',
+            'visualiser = collab_tools.visualiser_node:main',
         ],
     },
 )

@@ -36,12 +36,15 @@ THIRD_PARTY_KEYS = {
     'numba': 'python3-numba-pip',
     'rosbags': 'python3-rosbags-pip',
     'tqdm': 'python3-tqdm',
+    'PIL': 'python3-pil',
+    'foxglove': 'python3-foxglove-sdk-pip',
     'backports': 'python3-rosbags-pip',   # backports.zstd: rosbags' own dependency below Python 3.14
 }
 #: Keys found in ros/rosdistro's rosdep/python.yaml; every other key must be defined by the
 #: workspace's own rosdep source (config/rosdep/*.yaml).
 ROSDISTRO_KEYS = {'python3-numpy', 'python3-scipy', 'python3-opencv', 'python3-yaml', 'python3-matplotlib',
-                  'python3-networkx', 'python3-skimage', 'python3-pytest', 'python3-pybullet-pip', 'python3-tqdm'}
+                  'python3-networkx', 'python3-skimage', 'python3-pytest', 'python3-pybullet-pip', 'python3-tqdm',
+                  'python3-pil'}
 #: Standard library modules newer than the interpreter running the tests (imported behind a version check).
 NEWER_STDLIB = {'compression'}
 DEPEND_TAGS = ('depend', 'exec_depend', 'build_export_depend')
