@@ -47,7 +47,7 @@ def bag_messages(bag):
 def test_killed_recorder_bag_is_repaired_by_the_session(session, ros_node, tmp_path):
     bag = tmp_path / 'bag'
     publisher = ros_node.create_publisher(UInt32, '/steady', QoSProfile(depth=100))
-    process = session.start(recorder(bag, topics=['/steady'], chunk_flush_period=0.2))
+    process = session.start(recorder(bag, topics=['/steady'], chunk_flush_period=0.2, topic_rates=['/steady=200']))
     session.add_recording('bag_recorder', bag)
     wait_for_subscriber(publisher, timeout=20.0)
     published = 400
@@ -76,6 +76,7 @@ def test_killed_recorder_bag_is_repaired_by_the_session(session, ros_node, tmp_p
     info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert info['custom_data']['messages_lost'] == '0'   # the recorder's last status
     assert session.exit_code() == EXIT_NODE_FAILED        # the recorder died: the run failed
+    assert '(queue depth 400)' in process.log_path.read_text()  # 2 s of 200 Hz
 
 
 def test_flood_loss_is_counted_exactly(session, ros_node, tmp_path):

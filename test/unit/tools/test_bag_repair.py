@@ -217,13 +217,29 @@ def test_what_cannot_be_repaired_is_named(tmp_path, capsys):
     (junk / 'junk.mcap').write_bytes(b'not an mcap file at all')
     with pytest.raises(RepairError, match='not an MCAP file'):
         repair_bag(junk)
-    assert main([str(junk)]) == 1
+    assert main(['--force', str(junk)]) == 1
     assert 'bag_reindex:' in capsys.readouterr().err
 
 
 def test_cli_repairs_and_describes(tmp_path, reference, capsys):
     source, written = reference
     bag = cut_copy(source, tmp_path / 'cut', chunk_offsets(next(source.glob('*.mcap')))[4][1] + 3)
-    assert main([str(bag)]) == 0
+    assert main([str(bag)]) == 1  # just written: a live recorder's bag is left alone
+    assert 'is a recorder still writing it?' in capsys.readouterr().err
+    assert needs_repair(bag)
+    assert main(['--force', str(bag)]) == 0
     out = capsys.readouterr().out
     assert 'reindexed' in out and f'{5 * 50} messages' in out
+
+
+def test_flush_keeps_a_young_chunk_pending(tmp_path, typestore):
+    writer = BagWriter(tmp_path / 'bag', typestore)
+    writer.add_topic('/chatter', TYPES['/chatter'])
+    assert not writer.flush()  # nothing pending
+    writer.write('/chatter', T0, bytes(typestore.serialize_cdr(typestore.types[TYPES['/chatter']](data='a'),
+                                                            TYPES['/chatter'])))
+    assert not writer.flush(max_age_s=60.0)
+    assert writer.flush(max_age_s=0.0)
+    assert not writer.flush()
+    writer.close()
+    assert not writer.flush()

@@ -29,6 +29,7 @@ import argparse
 import os
 import struct
 import sys
+import time
 from binascii import crc32
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,8 @@ __all__ = ['RepairReport', 'RepairError', 'needs_repair', 'repair_bag', 'main']
 
 _NO_TIME = 2**63 - 1
 _DATA_COMPLETE = 'the data section was complete'
+#: A bag written to more recently than this may belong to a running recorder (the CLI refuses it).
+LIVE_SECONDS = 3.0
 
 
 class RepairError(ValueError):
@@ -316,16 +319,28 @@ def _close(f: BinaryIO, scan: _Scan, metadata: dict) -> None:
     os.fsync(f.fileno())
 
 
+def _seconds_since_written(bag: Path) -> float:
+    """Seconds since the bag's MCAP file or the recorder's status file last changed."""
+    times = [p.stat().st_mtime for p in (*Path(bag).glob('*.mcap'), Path(bag) / STATUS_FILE) if p.is_file()]
+    return time.time() - max(times) if times else float('inf')
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='bag_reindex', description='Repair a bag whose recorder died (as `ros2 bag reindex` does for '
         'metadata.yaml): rebuild the MCAP summary and index and metadata.yaml from the readable records.')
     parser.add_argument('bag', type=Path, nargs='+', help='bag directory (holds one .mcap file)')
     parser.add_argument('--ros-distro', default=ROS_DISTRO, help='what metadata.yaml says recorded it')
+    parser.add_argument('--force', action='store_true',
+                        help=f'repair even a bag written to in the last {LIVE_SECONDS:g} s (a live recorder\'s)')
     args = parser.parse_args(argv)
     code = 0
     for bag in args.bag:
         try:
+            age = _seconds_since_written(bag)
+            if age < LIVE_SECONDS and not args.force:
+                raise RepairError(f'{bag} was written {age:.1f} s ago: is a recorder still writing it? '
+                                  '(stop it first, or --force)')
             print(repair_bag(bag, args.ros_distro).describe())
         except (RepairError, OSError) as error:
             print(f'bag_reindex: {error}', file=sys.stderr)
