@@ -7,7 +7,8 @@ table or figure, run by ``scripts/experiment`` through :data:`EXPERIMENTS`:
 - :mod:`.disturbance`: ``sgcm-disturbance``, Fig. 5 (perfect, disturbed and zero-trust followers,
   plus a random and an adversarial one).
 
-Helpers: :mod:`.inputs` (task, cases and the options both take), :mod:`.case_plots` (one panel
+Helpers: :mod:`.inputs` (task, cases and the options both take), :mod:`.table1_paper` (Table I beside the
+paper's rows and paper_notes.md), :mod:`.case_plots` (one panel
 per case), :mod:`.sim_runner` (a case through the nodes, read back from its bag),
 :mod:`.report_plots` (the ``scripts/report`` plot of a Guidance bag) and :mod:`.benchmark`
 (``scripts/bench sgcm``: the leader's round on the kernel and the reference path, T = 1..4, and

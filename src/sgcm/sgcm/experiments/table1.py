@@ -9,7 +9,9 @@ bags (:mod:`.sim_runner`). Utilities follow Table I's accounting (core/episode.p
 SGCM's rounds of r(state after the round) minus both robots' costs, the greedy run padded with
 idle rounds at its final state if it ended sooner.
 
-Writes ``table1.md`` (the paper's columns plus the centralized rounds) and
+Writes ``table1.md`` (ours, the centralized rounds, and the paper's Table I row of the same case number
+beside each case, compared in kind: :mod:`.table1_paper`), ``paper_notes.md`` (every difference from the
+paper: the cases are the project's own, the utility scale, rounds and failures) and
 ``stage_utilities.png`` (Fig. 4: stage-wise utility per round, every case).
 """
 from __future__ import annotations
@@ -28,7 +30,8 @@ from ..core.rearrangement import RearrangementModel
 from ..core.scenario_builder import build_scenario
 from ..core.task_config import Case, TaskConfig, task_of
 from .case_plots import case_grid
-from .inputs import CaseModels, planner_path, task_and_cases, task_file
+from .inputs import CaseModels, cases_file, planner_path, task_and_cases, task_file
+from .table1_paper import paper_comparison, paper_notes, paper_table
 
 #: episodes(index, case) -> (SGCM episode, greedy episode)
 Episodes = Callable[[int, Case], tuple[EpisodeResult, EpisodeResult]]
@@ -68,7 +71,10 @@ def run(request: ExperimentRequest) -> ExperimentResult:
             decode=lambda saved: tuple(episode_from_dict(e) for e in saved),
             describe=lambda pair: f'SGCM {pair[0].rounds} rounds, greedy {pair[1].rounds}'), request.log)
     data, acceptance = table1_results(outcomes, task, mode, cases)
-    report = write_table1(outcomes, Path(request.run_dir))
+    data['paper_comparison'] = paper_comparison(outcomes, task, cases)
+    report = write_table1(outcomes, Path(request.run_dir), data['paper_comparison'])
+    (Path(request.run_dir) / 'paper_notes.md').write_text(
+        paper_notes(data['paper_comparison'], task, mode, str(cases_file(request)), bool(request.option('failures'))))
     completed = sum(o.sgcm.completed for o in outcomes)
     stuck = acceptance['greedy_stuck_cases']
     return ExperimentResult(
@@ -195,8 +201,9 @@ def _rounds_text(episode: EpisodeResult) -> str:
     return str(episode.rounds) if episode.completed else f'never (stuck after {episode.rounds})'
 
 
-def write_table1(outcomes: list[CaseOutcome], run_dir: Path) -> str:
-    """table1.md and stage_utilities.png in ``run_dir``; returns the table."""
+def write_table1(outcomes: list[CaseOutcome], run_dir: Path, comparison: dict | None = None) -> str:
+    """table1.md and stage_utilities.png in ``run_dir``; returns the table (with the paper's rows beside
+    ours when ``comparison``, from :func:`.table1_paper.paper_comparison`, is given)."""
     run_dir.mkdir(parents=True, exist_ok=True)
     lines = ['| case | greedy status | greedy rounds | greedy utility | SGCM status | SGCM rounds | '
              'SGCM utility | centralized rounds |', '|---|---|---|---|---|---|---|---|']
@@ -205,6 +212,8 @@ def write_table1(outcomes: list[CaseOutcome], run_dir: Path) -> str:
                      f'{o.greedy_utility:.1f} | {"Yes" if o.sgcm.completed else "No"} | '
                      f'{_rounds_text(o.sgcm)} | {o.sgcm_utility:.1f} | {o.centralized_rounds} |')
     table = '\n'.join(lines) + '\n'
+    if comparison is not None:
+        table += '\n' + paper_table(comparison)
     (run_dir / 'table1.md').write_text(table)
     _plot_stage_utilities(outcomes, run_dir / 'stage_utilities.png')
     return table
