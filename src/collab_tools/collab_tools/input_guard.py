@@ -23,6 +23,7 @@ The simulated clock's guard (:mod:`collab_tools.sim_clock`) counts its refusals 
 from __future__ import annotations
 
 import functools
+import time
 from collections import Counter
 from collections.abc import Callable
 from typing import Any
@@ -30,7 +31,7 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.time import Time
 
-from .core.input_checks import MalformedInput, error_kind, stamp_nanoseconds
+from .core.input_checks import MalformedInput, error_kind, reference_time, stamp_nanoseconds
 
 #: What a conversion raises for a malformed message (ValueError includes MalformedInput and ConfigurationError).
 CONVERSION_ERRORS = (ValueError, TypeError, KeyError, IndexError, ArithmeticError)
@@ -132,9 +133,10 @@ class InputGuard:
     # --- conversions ---------------------------------------------------------------------------
     def stamp(self, stamp, field: str = 'header.stamp') -> Time:
         """A message stamp as the node's clock type; MalformedInput when it is invalid (negative, nanosec
-        out of range, far ahead of this node's clock)."""
+        out of range, far ahead of this node's clock, or of the wall clock before simulated time started)."""
         clock = self.node.get_clock()
-        nanoseconds = stamp_nanoseconds(stamp.sec, stamp.nanosec, field, clock.now().nanoseconds)
+        now = reference_time(clock.now().nanoseconds, time.time_ns())
+        nanoseconds = stamp_nanoseconds(stamp.sec, stamp.nanosec, field, now)
         return Time(nanoseconds=nanoseconds, clock_type=clock.clock_type)
 
     def _resolved(self, name: str) -> str:

@@ -78,7 +78,8 @@ class LeaderPlanner(Node):
                                   params=params)
         self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
-        InputGuard.of(self).subscribe(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
+        self.inputs = InputGuard.of(self)
+        self.inputs.subscribe(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
         self.finished = Future()
         self.outcome = ''
         self.round_ended = None          # sim time the last round ended; frames count after + settle
@@ -157,6 +158,7 @@ class LeaderPlanner(Node):
         self.look_again = Time(nanoseconds=int(verdict.retry_at * 1e9), clock_type=self.get_clock().clock_type)
 
     def _on_report(self, msg: FollowerReport) -> None:
+        self.inputs.stamp(msg.header.stamp)     # an invalid stamp: dropped, counted, logged by the guard
         # A late or duplicate report (for a round that is over) is ignored by the core.
         if self.rounds.follower_reported(msg.round, not msg.move.empty, bool(msg.succeeded), msg.behaviour):
             self.round_ended = self.get_clock().now()

@@ -11,7 +11,8 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header
 
-from collab_tools.core.input_checks import ClockFilter, MalformedInput, NANOSECONDS, error_kind, stamp_nanoseconds
+from collab_tools.core.input_checks import ClockFilter, MalformedInput, NANOSECONDS, error_kind, reference_time, \
+    stamp_nanoseconds
 from collab_tools.input_guard import InputGuard
 from collab_tools.parameters import NodeParameters
 from collab_tools.sim_clock import guard_sim_clock
@@ -38,9 +39,13 @@ def test_invalid_stamps_are_refused_with_their_kind(sec, nanosec, now, kind):
     assert 'header.stamp' in str(caught.value)
 
 
-def test_far_ahead_is_judged_only_against_a_started_clock():
-    # A latched message can arrive before a simulated clock has started (now = 0): never refused for it.
-    assert stamp_nanoseconds(100_000, 0, now_ns=0) == 100_000 * NANOSECONDS
+def test_far_ahead_is_judged_against_the_clock_or_the_wall_clock_before_it_started():
+    wall = 1_795_000_000 * NANOSECONDS
+    # A latched message can arrive before a simulated clock has started (now = 0): judged by the wall clock.
+    assert reference_time(0, wall) == wall and reference_time(5, wall) == 5
+    assert stamp_nanoseconds(100_000, 0, now_ns=reference_time(0, wall)) == 100_000 * NANOSECONDS
+    with pytest.raises(MalformedInput, match='ahead'):
+        stamp_nanoseconds(2**31 - 1, 0, now_ns=reference_time(0, wall))
     assert stamp_nanoseconds(100, 0, now_ns=90 * NANOSECONDS) == 100 * NANOSECONDS  # a little ahead: fine
 
 

@@ -50,17 +50,25 @@ def error_kind(error: BaseException) -> str:
 def stamp_nanoseconds(sec: int, nanosec: int, field: str = 'header.stamp', now_ns: int | None = None,
                       max_ahead: float = MAX_AHEAD_SECONDS) -> int:
     """The stamp in nanoseconds; MalformedInput naming ``field`` when it is negative, its nanosec is out
-    of range, or (given the receiver's clock ``now_ns`` > 0) it lies more than ``max_ahead`` s ahead."""
+    of range, or (given the receiver's time ``now_ns``: see :func:`reference_time`) it lies more than
+    ``max_ahead`` s ahead."""
     if sec < 0:
         raise MalformedInput(f'{field}.sec: must be >= 0 (got {sec})', kind=f'{field}: negative')
     if not 0 <= nanosec < NANOSECONDS:
         raise MalformedInput(f'{field}.nanosec: must be in [0, 999999999] (got {nanosec})',
                              kind=f'{field}: nanosec out of range')
     stamp = int(sec) * NANOSECONDS + int(nanosec)
-    if now_ns is not None and now_ns > 0 and stamp - now_ns > max_ahead * NANOSECONDS:
+    if now_ns is not None and stamp - now_ns > max_ahead * NANOSECONDS:
         raise MalformedInput(f'{field}: {stamp / NANOSECONDS:.9g} s is {(stamp - now_ns) / NANOSECONDS:.3g} s '
                              f'ahead of this node\'s clock (at most {max_ahead:g} s)', kind=f'{field}: far ahead')
     return stamp
+
+
+def reference_time(clock_ns: int, wall_ns: int) -> int:
+    """What a stamp is judged against: the receiving node's clock, or the wall clock while a simulated
+    clock has not started (0: a latched message can come before the first /clock). Simulated time
+    starts at 0 and stays far behind the wall clock, so a stamp beyond today is invalid on any clock."""
+    return clock_ns if clock_ns > 0 else wall_ns
 
 
 class ClockFilter:
