@@ -44,6 +44,12 @@ BAD_FILES = [
     (dict(nodes=[{**DRIVER, 'parameters': ['missing.yaml']}]),
      "experiment.nodes[0] (driver).parameters[0]: parameter file"),
     (dict(timeout='long'), 'experiment.timeout: must be a number of seconds > 0'),
+    (dict(follow=[{'topic': '/done', 'type': 'std_msgs/msg/Bool', 'say': 'done: {dat}'}]),
+     "experiment.follow[0].say: 'done: {dat}' does not fit Bool"),
+    (dict(follow=[{'topic': '/done', 'type': 'std_msgs/msg/Bool', 'say': 'x', 'every': 2}]),
+     'experiment.follow[0].every: unknown field'),
+    (dict(follow=[{'topic': '/done', 'type': 'std_msgs/msg/Bool', 'say': 'x', 'when': {'date': True}}]),
+     "experiment.follow[0].when.date: Bool has no field 'date'"),
 ]
 
 
@@ -74,3 +80,17 @@ def test_orchestrate_exits_2_before_any_node_starts(tmp_path, fields, message):
     assert done.returncode == 2 and message in done.stderr, done.stderr
     assert 'Traceback' not in done.stderr and '[session]' not in done.stdout + done.stderr
     assert not run_dir.exists()
+
+
+def test_follow_lines_format_the_message_fields():
+    from std_msgs.msg import Header
+    from collab_tools.orchestration.experiment import _MessageFields
+
+    header = Header(frame_id='map')
+    header.stamp.sec = 7
+    assert 'frame {frame_id} at {stamp.sec} s'.format_map(_MessageFields(header)) == 'frame map at 7 s'
+
+
+def test_a_follow_entry_passes_the_checks(tmp_path):
+    follow = [{'topic': '/done', 'type': 'std_msgs/msg/Bool', 'say': 'done: {data}', 'when': {'data': True}}]
+    assert check_experiment(experiment_file(tmp_path, follow=follow), CONFIG)['follow'] == follow

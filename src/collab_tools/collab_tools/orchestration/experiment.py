@@ -17,6 +17,10 @@
       # - {wait_for_message: {topic: /roles/channel, type: role_interfaces/msg/ProcessRole,
       #                       equals: {robot: burger_1}, at_least: {version: 5}}}
       # - {stop: role_player_burger_1}
+    follow:                      # optional: a console line per message as the run goes (rounds, arrivals)
+      - {topic: /guidance, type: sgcm_interfaces/msg/Guidance, say: 'round {round}: {status}'}
+      #  say: str.format with the message's fields ({leader_move.colour}); when: {field: value} filters;
+      #  a line is printed once (repeats of the same text are dropped)
     until:                       # one of:
       message: {topic: /scripted_driver/done, type: std_msgs/msg/Bool, latched: true, equals: {data: true}}
       # exit: node_name
@@ -56,7 +60,7 @@ from .session import NodeExitedError, NodesNotDiscovered, Session
 NODE_FIELDS = {'package', 'executable', 'name', 'namespace', 'parameters', 'remappings',
                'arguments', 'use_sim_time', 'log_level', 'required', 'host'}
 TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start', 'until',
-              'namespace', 'discovery', 'domain_id', 'discovery_timeout', 'hosts'}
+              'namespace', 'discovery', 'domain_id', 'discovery_timeout', 'hosts', 'follow'}
 DEFAULT_DISCOVERY_TIMEOUT = 30.0
 
 
@@ -163,7 +167,9 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
 
     host: run only that host's part (its nodes, until they exit or Ctrl-C) -- on a remote host.
     """
-    data = load_experiment(path)
+    from .experiment_checks import check_experiment  # every field, before anything starts (exit 2)
+
+    data = check_experiment(path, config_dir, host)
     discovery, hosts = _network(data)
     if host is not None and host not in hosts:
         raise ExperimentError(f"--host {host}: the experiment defines no such host "
@@ -224,6 +230,7 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             except NodesNotDiscovered as error:
                 session.not_discovered = error.missing
                 raise
+            _follow(session, data.get('follow') or [], log)
             for index, step in enumerate(data.get('after_start') or []):
                 _run_step(session, step, f'experiment.after_start[{index}]')
             condition_met = _wait_until(session, data['until'], timeout)
@@ -292,6 +299,34 @@ def _run_step(session: Session, step, path: str) -> None:
         time.sleep(float(step['sleep']))
     else:
         raise ExperimentError(f'{path}: expected one of wait_for_message, call, stop, sleep')
+
+
+class _MessageFields(dict):
+    """A message's fields for str.format (``{round}``, ``{leader_move.colour}``)."""
+
+    def __init__(self, msg):
+        super().__init__()
+        self.msg = msg
+
+    def __missing__(self, key):
+        return getattr(self.msg, key)
+
+
+def _follow(session: Session, entries: list, log) -> None:
+    """One console line per message of each ``follow`` entry (checked by experiment_checks), repeats dropped."""
+    for entry in entries:
+        said: set[str] = set()
+        expected = entry.get('when', {})
+
+        def on_message(msg, entry=entry, said=said, expected=expected):
+            if not _matches(msg, expected):
+                return
+            text = entry['say'].format_map(_MessageFields(msg))
+            if text not in said:
+                said.add(text)
+                log(f"[{session.label}] {text}")
+        session.observer.follow(session.resolve(entry['topic']), entry['type'], on_message,
+                                latched=bool(entry.get('latched', False)))
 
 
 def _finished_as_awaited(until: dict, node) -> bool:

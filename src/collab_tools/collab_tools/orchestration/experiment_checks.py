@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..ros_interfaces import import_interface
-from .experiment import ExperimentError, _network, _substitute, load_experiment, parse_node
+from .experiment import ExperimentError, _MessageFields, _network, _substitute, load_experiment, parse_node
 from .node_process import NodeSpec, find_executable
 
 STEP_KINDS = ('wait_for_message', 'call', 'stop', 'sleep')
@@ -89,6 +89,22 @@ def _check_message_wait(spec: Any, path: str, node_names: set[str]) -> None:
         _positive(spec['timeout'], f'{path}.timeout')
 
 
+def _check_follow(entry: Any, path: str) -> None:
+    entry = _mapping(entry, path)
+    unknown = sorted(set(entry) - {'topic', 'type', 'say', 'when', 'latched'})
+    if unknown:
+        raise ExperimentError(f"{path}.{unknown[0]}: unknown field (allowed: topic, type, say, when, latched)")
+    _text(entry, 'topic', path)
+    message_type = _interface(entry.get('type'), f'{path}.type', 'message')
+    if 'when' in entry:
+        _fields_exist(message_type, entry['when'], f'{path}.when')
+    say = _text(entry, 'say', path)
+    try:
+        say.format_map(_MessageFields(message_type()))
+    except (AttributeError, KeyError, IndexError, ValueError) as error:
+        raise ExperimentError(f'{path}.say: {say!r} does not fit {message_type.__name__} ({error})') from None
+
+
 def _check_step(step: Any, path: str, node_names: set[str]) -> None:
     step = _mapping(step, path)
     kinds = [k for k in step if k in STEP_KINDS]
@@ -152,6 +168,11 @@ def check_experiment(path: str | Path, config_dir: str | Path, host: str | None 
         raise ExperimentError('experiment.after_start: must be a list of steps')
     for index, step in enumerate(steps):
         _check_step(step, f'experiment.after_start[{index}]', node_names)
+    follow = data.get('follow') or []
+    if not isinstance(follow, list):
+        raise ExperimentError('experiment.follow: must be a list of {topic, type, say[, when, latched]}')
+    for index, entry in enumerate(follow):
+        _check_follow(entry, f'experiment.follow[{index}]')
     kind, spec = next(iter(data['until'].items()))
     if kind == 'message':
         _check_message_wait(spec, 'experiment.until.message', node_names)

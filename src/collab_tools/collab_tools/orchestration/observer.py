@@ -77,6 +77,15 @@ class GraphObserver:
             self.node.destroy_subscription(subscription)
         return matched[0]
 
+    def follow(self, topic: str, type_name: str, on_message: Callable[[Any], None], latched: bool = False) -> None:
+        """Call ``on_message(msg)`` for every message on ``topic`` until the observer closes (the run's
+        progress lines); an exception in ``on_message`` is the caller's to catch, never the spin thread's."""
+        qos = (QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL) if latched
+               else QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT,
+                               durability=DurabilityPolicy.VOLATILE))
+        self.node.create_subscription(import_interface(type_name), topic, on_message, qos)
+
     def call_service(self, service: str, type_name: str, request: Any | None = None,
                      timeout: float = 30.0, check: Callable[[], None] | None = None) -> Any:
         srv_type = import_interface(type_name)
