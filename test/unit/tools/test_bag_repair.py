@@ -243,3 +243,15 @@ def test_flush_keeps_a_young_chunk_pending(tmp_path, typestore):
     assert not writer.flush()
     writer.close()
     assert not writer.flush()
+
+
+def test_zeros_after_the_last_record_are_dropped(tmp_path, reference):
+    """What a crashed file system can leave: the tail filled with zeros."""
+    source, written = reference
+    end = chunk_offsets(next(source.glob('*.mcap')))[3][1]
+    bag = cut_copy(source, tmp_path / 'cut', end)
+    with next(bag.glob('*.mcap')).open('ab') as f:
+        f.write(bytes(4096))
+    report = repair_bag(bag)
+    assert report.dropped_bytes == 4096 and 'no valid record' in report.stopped
+    assert_opens_with(bag, written[:4 * 50])

@@ -162,6 +162,8 @@ def _scan(f: BinaryIO, size: int, scan: _Scan) -> tuple[int, str, tuple[int, byt
         opcode, length = struct.unpack_from('<BQ', head)
         if opcode in (mr.OP_DATA_END, mr.OP_FOOTER):
             return good, _DATA_COMPLETE, None
+        if opcode in (0x00, mr.OP_HEADER):  # zeros a crash left, or garbage: no record starts here
+            return good, f'no valid record at byte {good} (opcode 0x{opcode:02x})', None
         if good + mr.RECORD_HEAD + length > size:
             cut = (opcode, f.read()) if opcode == mr.OP_CHUNK else None
             return good, f'record 0x{opcode:02x} at byte {good} is cut off ({size - good} of ' \
