@@ -29,6 +29,7 @@ from typing import Any
 
 from ..names import join
 from .domain import acquire_domain
+from .live import LiveView, from_environment as live_from_environment
 from .network import Discovery, Host, NetworkConfigError
 from .node_process import NodeProcess, NodeSpec, build_command
 from .recordings import Recording, finish_recording
@@ -93,8 +94,11 @@ class Session:
     def __init__(self, label: str, run_dir: Path | None = None, domain_id: int | None = None,
                  stop_timeout: float = 10.0, log: Callable[[str], None] | None = print,
                  namespace: str = '/', discovery: Discovery | None = None,
-                 hosts: dict[str, Host] | None = None, share_domain: bool = False):
+                 hosts: dict[str, Host] | None = None, share_domain: bool = False,
+                 live: 'LiveView | None | str' = 'environment'):
         self.label = label
+        # The live view (orchestration.live): started first, in this session's domain and namespace.
+        self.live = live_from_environment() if live == 'environment' else live
         self.namespace = join(namespace)
         self.discovery = discovery or Discovery()
         self.hosts = dict(hosts or {})
@@ -123,6 +127,8 @@ class Session:
                   f'{self.discovery.describe()}, run dir {self.run_dir}')
         try:
             self._start_discovery_servers()
+            for spec in self.live.specs() if self.live is not None else ():
+                self.start(spec)
         except BaseException:
             self.__exit__(None, None, None)
             raise
