@@ -1,14 +1,18 @@
-"""The demo experiment runs end to end: recorded bag, robots moved, report written."""
+"""The demo experiment runs end to end: recorded bag, robots moved, report written with the demo's
+outcome first (as scripts/demo writes it), and its camera exported as a playable video."""
 
 import json
 import math
 
 from collab_tools.core.bag_analysis import read_messages, summarize_bag
+from collab_tools.core.run_outcome import OUTCOMES_FILE, write_outcomes
+from collab_tools.core.video import read_video
+from collab_tools.experiments.session_outcome import session_outcome
 from collab_tools.orchestration.experiment import run_experiment
 from collab_tools.report_cli import main as report_main
 
 
-def test_demo_mobile_experiment_records_moving_robots(config_dir, tmp_path):
+def test_demo_mobile_experiment_records_moving_robots(config_dir, tmp_path, capsys):
     run_dir = tmp_path / 'demo'
     # The demo's own real-time factor: the driver runs on simulated time and must keep up.
     result = run_experiment(config_dir / 'experiments' / 'demo_mobile.yaml', config_dir,
@@ -31,7 +35,24 @@ def test_demo_mobile_experiment_records_moving_robots(config_dir, tmp_path):
         moved = math.dist(first[robot], last[robot])
         assert moved > 0.3, f'{robot} moved only {moved:.3f} m'
 
-    assert report_main([str(run_dir), '--out', str(run_dir / 'report')]) == 0
+    # scripts/demo's outcome line: the session and what the bag shows.
+    outcome = session_outcome('mobile', result)
+    assert (outcome.status, outcome.passed) == ('completed', True), outcome.line()
+    assert all(f'robot_{k} ' in outcome.summary for k in (1, 2, 3)), outcome.summary
+    write_outcomes(run_dir / OUTCOMES_FILE, [outcome])
+    capsys.readouterr()
+    assert report_main([str(run_dir), '--out', str(run_dir / 'report'), '--video']) == 0
+    assert capsys.readouterr().out.splitlines()[0] == f'outcome: {outcome.line()}'
     report = json.loads((run_dir / 'report' / 'report.json').read_text())
-    assert report
-    assert list((run_dir / 'report').rglob('*.png'))
+    assert [o['line'] for o in report['outcomes']] == [outcome.line()] and report['passed'] is True
+    markdown = (run_dir / 'report' / 'report.md').read_text().splitlines()
+    assert markdown[markdown.index('## Outcome') + 2].startswith('- **mobile: completed**')
+    plots = sorted(p.name for p in (run_dir / 'report').rglob('*.png'))
+    assert {'message_rates.png', 'trajectories.png', 'velocities.png'} <= set(plots), plots
+
+    # The camera, recorded at 2 Hz as JPEG, plays back frame by frame.
+    frames = counts['/top_camera/image_raw/compressed']
+    assert frames >= 5, counts
+    video = report['bags'][0]['videos'][0]
+    assert video['frames'] == frames and video['camera_topic'] == '/top_camera/image_raw/compressed'
+    assert read_video(run_dir / 'report' / video['path']) == (frames, video['width'], video['height'])

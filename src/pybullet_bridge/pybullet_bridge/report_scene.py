@@ -13,7 +13,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import yaml
+from collab_tools.core.errors import ConfigurationError
+from collab_tools.core.fields import read_yaml_file
 from collab_tools.core.scene_layout import Disc, GridTable, Rect, SceneLayout, register_scene_reader
 
 from .core.obstacles import WALL_COLOR, WallSet
@@ -49,8 +50,8 @@ def scenario_file_of(bag: Path) -> Path | None:
 def _scenario_parameter(path: Path) -> str | None:
     """The ``scenario`` of a ROS parameter file (any node entry), None if it sets none."""
     try:
-        data = yaml.safe_load(path.read_text(encoding='utf-8')) or {}
-    except (OSError, yaml.YAMLError):
+        data = read_yaml_file(path, 'parameter file')
+    except ConfigurationError:
         return None
     for entry in data.values() if isinstance(data, dict) else ():
         value = (entry or {}).get('ros__parameters', {}).get('scenario') if isinstance(entry, dict) else None

@@ -136,10 +136,13 @@ class _Markers:
         return b, g, r
 
 
-def _text(image, text: str, origin, colour=(255, 255, 255), scale: float = 0.45) -> None:
-    org = (int(origin[0]), int(origin[1]))
-    cv2.putText(image, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(image, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
+def _text(image, text: str, origin, colour=(255, 255, 255), scale: float = 0.45, outline=(0, 0, 0)) -> None:
+    """Outlined text, kept inside the image."""
+    (width, height), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    x = int(min(max(origin[0], 2), image.shape[1] - width - 2))
+    y = int(min(max(origin[1], height + 2), image.shape[0] - 4))
+    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, outline, 3, cv2.LINE_AA)
+    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
 
 
 def _draw(image: np.ndarray, markers: _Markers, scale: float, caption: str) -> None:
@@ -171,7 +174,7 @@ def _draw(image: np.ndarray, markers: _Markers, scale: float, caption: str) -> N
             if len(points) > 1:
                 cv2.polylines(image, [points.reshape(-1, 1, 2)], False, colour, 2, cv2.LINE_AA)
             cv2.circle(image, tuple(points[-1]), 4, colour, -1, cv2.LINE_AA)
-            _text(image, robot, points[-1] + (8, -8), colour)
+            _text(image, robot, points[-1] + (8, -8), colour, scale=0.5, outline=(255, 255, 255))
     _text(image, caption, (8, image.shape[0] - 10), scale=0.5)
 
 
