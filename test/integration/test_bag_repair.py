@@ -10,6 +10,7 @@ import pytest
 import yaml
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosbags.highlevel import AnyReader
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from std_msgs.msg import UInt32
 
 from bridge_helpers import wait_for_subscriber
@@ -84,6 +85,8 @@ def test_flood_loss_is_counted_exactly(session, ros_node, tmp_path):
     # The publisher keeps every message until delivered; the recorder's queue holds one.
     publisher = ros_node.create_publisher(UInt32, '/flood', QoSProfile(depth=6000,
                                                                        reliability=ReliabilityPolicy.RELIABLE))
+    diagnostics = []
+    ros_node.create_subscription(DiagnosticArray, '/diagnostics', diagnostics.append, 10)
     session.start(recorder(bag, topics=['/flood'], queue_depth=1, chunk_flush_period=0.2))
     session.add_recording('bag_recorder', bag)
     wait_for_subscriber(publisher, timeout=20.0)
@@ -96,6 +99,11 @@ def test_flood_loss_is_counted_exactly(session, ros_node, tmp_path):
     # The newest message always stays in a keep-last queue: it arrives last.
     wait_for(lambda: sum(recorder_counts(bag, '/flood').get(k, 0) for k in ('received', 'gaps')) >= published,
              30.0, 'the last message')
+    # The recorder says so while it records, on /diagnostics.
+    wait_for(lambda: any(s.level == DiagnosticStatus.WARN for a in diagnostics for s in a.status), 10.0,
+             'a WARN diagnostic')
+    warn = next(s for a in reversed(diagnostics) for s in a.status if s.level == DiagnosticStatus.WARN)
+    assert warn.name == '/bag_recorder' and 'lost' in warn.message
     assert session.stop('bag_recorder') == 0
 
     recorded = len(bag_messages(bag))

@@ -20,6 +20,8 @@ lost them; the middleware's message_lost events; failed writes), logs every loss
 closes and puts the counts into ``custom_data`` and into ``recorder_status.yaml`` in the bag,
 rewritten every ``chunk_flush_period`` together with the pending chunk, so a killed recorder
 loses at most that period's messages and its bag is repaired with its last counts (bag_reindex).
+The same counts go to ``/diagnostics`` (diagnostic_msgs, as ROS drivers report their state) at
+every tick: WARN while messages are lost, ERROR for a topic it cannot record.
 A topic's queue holds ``queue_seconds`` of its expected rate (``topic_rates``), at least
 ``queue_depth`` messages.
 """
@@ -28,11 +30,13 @@ import os
 import re
 import sys
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
                        ReliabilityPolicy)
+from std_msgs.msg import Header
 
 from .core.bag_storage import ROS_DISTRO
 from .core.bag_types import build_typestore
@@ -88,6 +92,7 @@ class BagRecorder(Node):
         except (OSError, ValueError) as error:
             raise ConfigurationError(f'parameter output: {error}') from None
         self.status_path = self.writer.path / STATUS_FILE
+        self.diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._written_status = None
         self.flush_timer = self.create_timer(values['chunk_flush_period'], self._flush,
                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -198,6 +203,19 @@ class BagRecorder(Node):
         custom = self.loss.custom_data()
         if custom != self._written_status:
             self._write_status(custom, 'recording')
+        self._publish_diagnostics()
+
+    def _publish_diagnostics(self) -> None:
+        lost = self.loss.total_lost
+        level, text = ((DiagnosticStatus.ERROR, f'{len(self.failures)} topic(s) cannot be recorded') if self.failures
+                       else (DiagnosticStatus.WARN, f'{lost} message(s) lost') if lost
+                       else (DiagnosticStatus.OK, 'recording, nothing lost'))
+        values = [KeyValue(key=topic, value=f'received {c.received}, written {c.written}, lost {c.lost}')
+                  for topic, c in sorted(self.loss.topics.items())]
+        status = DiagnosticStatus(level=level, name=self.get_fully_qualified_name(), message=text,
+                                  hardware_id=str(self.writer.path), values=values)
+        self.diagnostics.publish(DiagnosticArray(header=Header(stamp=self.get_clock().now().to_msg()),
+                                                 status=[status]))
 
     def _write_status(self, custom: dict, state: str) -> None:
         try:
