@@ -16,8 +16,9 @@ PIONEER_MAX_LINEAR = 1.2  # m/s, built-in pioneer_3dx limit
 
 
 @pytest.fixture
-def bridge(session, config_dir):
-    session.start(bridge_spec(config_dir / 'scenarios' / 'test_single_robot.yaml'))
+def bridge(session, config_dir, tmp_path):
+    session.start(bridge_spec(config_dir / 'scenarios' / 'test_single_robot.yaml',
+                              scenario_directories=[str(config_dir / 'scenarios'), str(tmp_path)]))
     session.wait_for_message('/pybullet_bridge/status', 'bridge_interfaces/msg/SimulationStatus',
                              timeout=30.0)
     return session

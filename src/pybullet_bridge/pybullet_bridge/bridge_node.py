@@ -51,6 +51,7 @@ from .core.frames import robot_transforms, static_transforms
 from .core.pacing import RealTimeMeter, SimTimeSchedule, TickPacer, steps_per_tick
 from .core.renderer import RendererError
 from .core.scenario import load_scenario
+from .core.scenario_access import ScenarioDirectories
 from .core.scene import Scene
 from .core.settings import BRIDGE_SETTINGS
 from .entity_adapters import create_adapters
@@ -82,10 +83,11 @@ class PybulletBridge(Node):
         # clock_rate 0: /clock every tick; else at that rate (and after every ~/step).
         self.clock = SimTimeSchedule(settings['clock_rate']) if settings['clock_rate'] > 0 else None
 
+        self.scenario_directories = ScenarioDirectories(settings['scenario_directories'])  # ScenarioError: exit 2
         try:
             scenario = load_scenario(self.scenario_path)
         except ScenarioError as error:
-            raise ConfigurationError(f'scenario {self.scenario_path}: {error}') from None
+            raise ConfigurationError(f'parameter scenario: {error}') from None
         try:
             self.scene = Scene(scenario, renderer=settings['camera_renderer'])
         except RendererError as error:
@@ -105,7 +107,7 @@ class PybulletBridge(Node):
         self.tf = TfPublisher(self)
         self.camera = CameraPublisher(self, self.params, scenario.camera.frame_id)
 
-        self.create_service(ResetScenario, '~/reset', self._on_reset)
+        self.inputs.serve(ResetScenario, '~/reset', self._on_reset)
         self.inputs.serve(SetBool, '~/pause', self._on_pause)
         self.inputs.serve(StepSimulation, '~/step', self._on_step)
 
@@ -250,12 +252,11 @@ class PybulletBridge(Node):
 
     # --- services -----------------------------------------------------------------------
     def _on_reset(self, request: ResetScenario.Request, response: ResetScenario.Response):
-        path = request.scenario_path or self.scenario_path
-        try:
-            scenario = load_scenario(path)
+        try:   # only from the scenario_directories, read within input_files' bounds (core/scenario_access.py)
+            scenario, path = self.scenario_directories.load(request.scenario_path, self.scenario_path)
         except ScenarioError as error:
             response.success = False
-            response.message = f'scenario {path}: {error}; still running {self.scene.scenario.name}'
+            response.message = f'{error}; still running {self.scene.scenario.name}'
             self.get_logger().error(response.message)
             return response
         self.scene.reset(scenario)

@@ -13,7 +13,7 @@ GOOD = {'scenario': '/tmp/scenario.yaml'}
 
 def test_defaults_with_a_scenario_are_the_documented_start_values():
     values = NODE_SETTINGS.validate(GOOD)
-    assert values == {'scenario': '/tmp/scenario.yaml', 'real_time_factor': 1.0, 'control_period': 0.01,
+    assert values == {'scenario': '/tmp/scenario.yaml', 'scenario_directories': [''], 'real_time_factor': 1.0, 'control_period': 0.01,
                       'fast_batch_period': 0.0, 'clock_rate': 0.0, 'ground_truth_rate': 20.0, 'status_rate': 1.0, 'start_paused': False,
                       'camera_renderer': 'tiny', 'publish_camera': True, 'compressed_rate': 0.0, 'jpeg_quality': 95}
 

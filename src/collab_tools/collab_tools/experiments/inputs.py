@@ -24,6 +24,8 @@ from typing import Any, Sequence
 import yaml
 
 from ..core.errors import ConfigurationError
+from ..core.input_files import load_yaml_text, read_text_file, shown_path
+from ..core.settings import echo
 
 OVERLAY = Path('inputs') / 'config'
 
@@ -40,9 +42,9 @@ def parse_settings(pairs: Sequence[str] | None) -> dict[str, Any]:
         if not text.strip():
             raise ConfigurationError(f'--set {pair}: no value after =')
         try:
-            settings[key] = yaml.safe_load(text)
-        except yaml.YAMLError as error:
-            raise ConfigurationError(f'--set {pair}: the value is not YAML ({error})') from None
+            settings[key] = load_yaml_text(text)
+        except ConfigurationError as error:
+            raise ConfigurationError(f'--set {echo(pair)[1:-1]}: the value is not YAML ({error})') from None
     return settings
 
 
@@ -84,8 +86,8 @@ def apply_settings(data: Any, settings: dict[str, Any], where: str) -> Any:
             if last:
                 old = node[slot]
                 if old is not None and _kind(old) != _kind(value):
-                    raise ConfigurationError(f'--set {key}={value!r}: {where} has a {_kind(old)} there '
-                                             f'({old!r}), not a {_kind(value)}')
+                    raise ConfigurationError(f'--set {key}={echo(value)}: {where} has a {_kind(old)} there '
+                                             f'({echo(old)}), not a {_kind(value)}')
                 node[slot] = value
             else:
                 node = node[slot]
@@ -93,10 +95,11 @@ def apply_settings(data: Any, settings: dict[str, Any], where: str) -> Any:
 
 
 def _read_yaml(path: Path, what: str) -> Any:
+    text = read_text_file(path, what)       # regular files only, bounded (core.input_files)
     try:
-        return yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigurationError(f"{what} '{path}': cannot read ({error})") from None
+        return load_yaml_text(text)
+    except ConfigurationError as error:
+        raise ConfigurationError(f"{what} '{shown_path(path)}': {error}") from None
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,15 @@ simulator, so sgcm, role_engine and the coalition agents read scenarios without 
 **Scenario format** (a YAML file -> a validated :class:`~.scenario.Scenario`; schema in :mod:`.scenario`)
   ``scenario``         loading and parsing a file; registers the built-in sections in label order
   ``sections``         the section registry and :class:`~.sections.SectionContext` a parser gets
+  ``scenario_access``  the directories ``~/reset`` may load a requested scenario from
   ``world``            ``world`` (bounds, physics step, walls) and ``camera`` sections
   ``robot_types``      built-in and scenario robot types
   ``entity``           entity definitions vs simulated entities, ground-truth body state
   ``errors``           :class:`~.errors.ScenarioError` (a ConfigurationError naming the field)
   ``mobile_robot``, ``obstacles``, ``tabletop``, ``targets``, ``movable_boxes``, ``arm.definition``
                        each section's definitions and parser
-  ``occupancy_map``    occupancy images -> rectangles (the ``obstacles.map`` field; OpenCV reads the file)
+  ``occupancy_map``    occupancy images -> rectangles (the ``obstacles.map`` field; OpenCV decodes the
+                       file input_files read and sized); MAX_MAP_BOXES, the most boxes a scene may have
   ``sensor_config``    a robot's ``sensors`` field
 **Simulation**
   ``scene`` (sim)          a pybullet client holding a scenario's entities; steps, labels, resets

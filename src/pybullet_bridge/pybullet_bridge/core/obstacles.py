@@ -11,7 +11,7 @@ from collab_tools.core.fields import Fields, join_path, require_list
 
 from .entity import EntityDefinition
 from .errors import ScenarioError
-from .occupancy_map import occupancy_to_rectangles, read_grey_image, read_nav2_map
+from .occupancy_map import MAX_MAP_BOXES, occupancy_to_rectangles, read_grey_image, read_nav2_map
 from .sections import SectionContext
 from .world import WALLS_ENTITY_NAME, WorldConfig
 
@@ -93,8 +93,10 @@ def load_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
     height = fields.number('height', 0.3, gt=0.0)
     color = fields.color('color', DEFAULT_MAP_COLOR)
     rows = grey.shape[0]
+    rectangles = occupancy_to_rectangles(grey < threshold, MAX_MAP_BOXES)
+    _check_box_count(len(rectangles), fields.path_of('image'))
     boxes = []
-    for index, (row0, col0, row1, col1) in enumerate(occupancy_to_rectangles(grey < threshold)):
+    for index, (row0, col0, row1, col1) in enumerate(rectangles):
         x0, x1 = origin_x + col0 * resolution, origin_x + col1 * resolution
         y0, y1 = origin_y + (rows - row1) * resolution, origin_y + (rows - row0) * resolution
         boxes.append(BoxObstacle(f'map_{index}', ((x0 + x1) / 2, (y0 + y1) / 2), (x1 - x0, y1 - y0),
@@ -116,8 +118,17 @@ def _nav2_map_boxes(map_cfg: Any, ctx: SectionContext) -> list[BoxObstacle]:
     height = fields.number('height', 0.3, gt=0.0)
     color = fields.color('color', DEFAULT_MAP_COLOR)
     nav2 = read_nav2_map(yaml_path, error=ScenarioError, extra_fields=('name', 'description', 'border_is_obstacle'))
+    boxes = nav2.boxes(limit=MAX_MAP_BOXES)
+    _check_box_count(len(boxes), fields.path_of('yaml'))
     return [BoxObstacle(f'map_{index}', centre, size, height, yaw, color, config_path=path)
-            for index, (centre, size, yaw) in enumerate(nav2.boxes())]
+            for index, (centre, size, yaw) in enumerate(boxes)]
+
+
+def _check_box_count(count: int, field_path: str) -> None:
+    if count > MAX_MAP_BOXES:
+        raise ScenarioError(f'{field_path}: the map needs more than {MAX_MAP_BOXES} boxes to cover its occupied '
+                            'pixels (the most the simulator steps in real time: README "Input files"); use a '
+                            'coarser or simpler map')
 
 
 def parse_obstacles(value: Any, context: SectionContext) -> list[BoxObstacle]:

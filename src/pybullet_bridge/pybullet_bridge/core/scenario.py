@@ -164,6 +164,7 @@ from .errors import ScenarioError
 from .mobile_robot import parse_mobile_robots
 from .movable_boxes import parse_movable_boxes
 from .obstacles import parse_obstacles
+from .occupancy_map import MAX_MAP_BOXES
 from .robot_types import BUILTIN_ROBOT_TYPES, ROBOT_TYPE_FIELDS, parse_robot_types
 from .sections import (TOP_LEVEL_KEYS, SectionContext, SectionParser, register_section,
                        registered_sections, section_parsers, unregister_section)
@@ -244,6 +245,10 @@ def parse_scenario(data: dict, base_dir: Path, source: Path | None = None) -> Sc
             if not getattr(entity, 'config_path', ''):
                 entity.config_path = join_path(key, index)
         sections[key] = entities
+        count = sum(len(listed) for listed in sections.values())
+        if count > MAX_MAP_BOXES:
+            raise fail(key, f'the scene has more than {MAX_MAP_BOXES} entities ({count} with this section; the most '
+                       'the simulator steps in real time, see core.occupancy_map.MAX_MAP_BOXES)', error=ScenarioError)
     _check_unique_names(sections, world)
     return Scenario(name=name, source=source, world=world, camera=camera,
                     robot_types=robot_types, sections=sections, seed=seed)

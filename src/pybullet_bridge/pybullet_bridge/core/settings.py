@@ -21,6 +21,9 @@ RENDERERS = (AUTO, EGL, TINY)
 #: Parameters of the simulation loop (bridge_node.py).
 BRIDGE_SETTINGS = SettingsSchema(
     Setting('scenario', '', 'path to the scenario YAML (see README: scenario files)', required=True),
+    Setting('scenario_directories', [''], "directories ~/reset may load a requested scenario from (symlinks and "
+            "'..' resolved first; a relative request is relative to the first); [''] = the workspace's "
+            'config/scenarios (core/scenario_access.py)'),
     Setting('real_time_factor', 1.0, 'simulated seconds per wall second; 0 = as fast as possible',
             low=0.0, high=MAX_REAL_TIME_FACTOR, dynamic=True),
     Setting('control_period', 0.01, 'simulated seconds per tick (/clock and command update), '

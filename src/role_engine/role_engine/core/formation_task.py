@@ -41,7 +41,7 @@ import numpy as np
 from collab_tools.core.fields import Fields, fail, join_path, read_yaml_file
 
 from .controller import TrackingGains
-from .environment import RobotEnvironment, RobotType
+from .environment import MAX_GRID_CELLS, RobotEnvironment, RobotType
 from .errors import RoleEngineError
 from .formations import parse_formation
 from .gp_planner import GPPlanner, GPPlannerConfig
@@ -56,6 +56,13 @@ TOP_LEVEL_KEYS = ('scenario', 'formation', 'trajectory', 'grid_resolution', 'inf
                   'controller')
 #: GP fields the task sets itself, per robot type.
 GP_FIELDS_SET_HERE = ('robot_radius', 'max_speed')
+#: Most support states of a trajectory: what a role player accepts in a process role
+#: (role_messages.MAX_ROLE_STATES); 41 in the paper. A 100,001-state plan took 4.9 s, 1e9 states
+#: would need 32 GB for the states alone.
+MAX_TRAJECTORY_STATES = 10_000
+#: Most GP-interpolated instants per interval (obstacle, collision-check and robot-avoidance
+#: factors are states x (1 + this)): 100 keeps a plan of MAX_TRAJECTORY_STATES within ~1 M factors.
+MAX_INTERPOLATION = 100
 
 
 @dataclass(frozen=True)
@@ -120,7 +127,8 @@ def load_formation_task(path: str | Path, *, check_scenario: bool = True) -> For
                               if name not in GP_FIELDS_SET_HERE], error=RoleEngineError).data)
     task = FormationTask(
         source=path, scenario=scenario, formation=formation,
-        total_time=trajectory.number('total_time', gt=0.0), states=trajectory.integer('states', ge=2),
+        total_time=trajectory.number('total_time', gt=0.0),
+        states=trajectory.integer('states', ge=2, le=MAX_TRAJECTORY_STATES),
         grid_resolution=fields.number('grid_resolution', 0.05, gt=0.0),
         inflation_margin=fields.number('inflation_margin', 0.03, ge=0.0),
         speed_fraction=fields.number('speed_fraction', 0.8, gt=0.0, le=1.0), gp=gp,
@@ -138,8 +146,24 @@ def load_formation_task(path: str | Path, *, check_scenario: bool = True) -> For
         fields.raw('problem_detection', {}), fields.path_of('problem_detection'),
         silence_timeout=task.silence_timeout))
     task.roles(1)                                      # validates the formation fields once
-    task.gp_config(RobotType('check', 0.1))            # and the GP fields
+    gp_config = task.gp_config(RobotType('check', 0.1))  # and the GP fields
+    for name, value in (('gp.obstacle_interpolation', gp_config.obstacle_interpolation),
+                        ('gp.collision_check_interpolation', gp_config.collision_check_interpolation),
+                        ('robot_avoidance.interpolation', task.robot_avoidance.interpolation)):
+        if value > MAX_INTERPOLATION:
+            raise fail(join_path(where, name), f'must be <= {MAX_INTERPOLATION} (got {value}; instants per '
+                       'interval, each a factor of every plan)', RoleEngineError)
     return task
+
+
+def check_grid_size(task: FormationTask, bounds) -> None:
+    """Refuse a grid_resolution that makes the grid over ``bounds`` (xmin, ymin, xmax, ymax) too big."""
+    xmin, ymin, xmax, ymax = bounds
+    cells = ((xmax - xmin) / task.grid_resolution) * ((ymax - ymin) / task.grid_resolution)
+    if cells > MAX_GRID_CELLS:
+        raise fail(join_path(str(task.source), 'grid_resolution'),
+                   f'{task.grid_resolution:g} m gives {cells:.3g} cells over the world bounds {tuple(bounds)} '
+                   f'(at most {MAX_GRID_CELLS}, what the engine builds in about a second)', RoleEngineError)
 
 
 def _tracking_gains(data, path: str) -> TrackingGains:

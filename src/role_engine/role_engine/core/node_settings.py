@@ -26,7 +26,7 @@ from collab_tools.core.settings import Setting, SettingsSchema
 from pybullet_bridge.core.scenario import load_scenario
 
 from .errors import RoleEngineError
-from .formation_task import FormationTask, TeamMember, load_formation_task, team_from_scenario
+from .formation_task import FormationTask, TeamMember, check_grid_size, load_formation_task, team_from_scenario
 from .gp_planner import FORMULATIONS
 from .tracking import TrackingSettings
 from .tuning import EngineTuning, PlayerTuning
@@ -167,6 +167,7 @@ def engine_settings_file(path: str):
     try:
         task = load_formation_task(path)
         scenario = load_scenario(task.scenario)
+        check_grid_size(task, scenario.world.bounds)
         return task, scenario, team_from_scenario(scenario, task.inflation_margin)
     except ValueError as error:          # RoleEngineError and the bridge's ScenarioError
         raise ConfigurationError(f'parameter settings_file: {error}') from None
