@@ -50,8 +50,7 @@ from .core.errors import ScenarioError
 from .core.frames import robot_transforms, static_transforms
 from .core.pacing import RealTimeMeter, SimTimeSchedule, TickPacer, steps_per_tick
 from .core.renderer import RendererError
-from .core.scenario import load_scenario
-from .core.scenario_access import ScenarioDirectories
+from .core.scenario_access import ScenarioDirectories, load_scenario
 from .core.scene import Scene
 from .core.settings import BRIDGE_SETTINGS
 from .entity_adapters import create_adapters

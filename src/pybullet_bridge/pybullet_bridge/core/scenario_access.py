@@ -24,6 +24,8 @@ from collab_tools.core.input_files import check_path, shown_path
 from .errors import ScenarioError
 from .scenario import Scenario, load_scenario
 
+__all__ = ['DEFAULT_SCENARIO_DIRECTORY', 'ScenarioDirectories', 'load_scenario']
+
 #: The workspace's scenario directory (src/pybullet_bridge/pybullet_bridge/core/ -> config/scenarios;
 #: the workspace is built with --symlink-install, so this file resolves into src/).
 DEFAULT_SCENARIO_DIRECTORY = Path(os.environ.get('COLLAB_WS_ENV') or Path(__file__).resolve().parents[4]) \
