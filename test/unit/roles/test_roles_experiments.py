@@ -100,7 +100,8 @@ def test_table3_writes_its_outputs_and_progress(table3):
     assert stored['schema'] == 'collab-experiment/1' and stored['experiment'] == 'roles-table3'
     assert stored['passed'] is stored['acceptance']['passed'] is True and stored['problem_seed'] == 3
     table = (run_dir / 'table3.md').read_text()
-    assert '| method | feasibility | average error | average converging time (iterations) |' in table
+    assert ('| method | feasibility | paper | average error | paper | ours / paper | average converging time '
+            '(iterations) | paper |') in table
     assert re.search(r'\| Our method \(E-Map initialisation\) \| 100\.00% \|', table)
     for name in ('table3_examples.png', 'table3_feasibility.png'):
         assert (run_dir / name).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'

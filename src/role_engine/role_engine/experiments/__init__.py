@@ -18,7 +18,8 @@ Inputs from the command line (besides scripts/experiment's ``--config``/``--set`
 
 Shared pieces: :mod:`.config` (config/roles/experiments.yaml and the table inputs), :mod:`.problems` (the seeded
 problems), :mod:`.gp_sweep` (the environments x problems x sigma_obs sweep and its measures),
-:mod:`.table_report` (breakdown tables and figures of Tables III/IV), :mod:`.collab_config`,
+:mod:`.table_report` (breakdown tables and figures of Tables III/IV), :mod:`.paper_comparison` (Tables III/IV
+beside the paper: claims in kind, stopping rules, scale probe, for paper_notes.md), :mod:`.collab_config`,
 :mod:`.collab_simulation` (the core-level simulation driving the nodes' RolePlayer),
 :mod:`.path_measures` (distances, obstacle clearance, contacts, jerk), :mod:`.formation_bag` (the recorded
 run), :mod:`.formation_inputs` (the formation's team, map and generated run files).

@@ -99,18 +99,29 @@ def plot_examples(panels: list[list[tuple]], row_labels: list[str], title: str, 
 
 
 def plot_per_environment(results: dict, methods, labels, measure: str, ylabel: str, title: str, path: Path,
-                          as_percent: bool = False) -> None:
-    """One bar per environment and method: ``measure`` of the per-environment breakdown."""
+                          as_percent: bool = False, log_scale: bool = False,
+                          paper: dict[str, float] | None = None) -> None:
+    """One bar per environment and method: ``measure`` of the per-environment breakdown, with the
+    paper's overall value of each method as a dashed line (``paper``; the paper gives no per-environment
+    values). The legend sits right of the axes, never over the bars; the title wraps."""
     envs = list(results['per_environment'])
-    fig, ax = plots.figure(1.4 * len(envs) + 2.5, 3.4)
+    fig, ax = plots.figure(1.3 * len(envs) + 4.5, 3.8)
     width = 0.8 / len(methods)
+    colours = {}
     for k, method in enumerate(methods):
         values = [results['per_environment'][e][method][measure] for e in envs]
-        values = [(100.0 * v if as_percent else v) if v is not None else 0.0 for v in values]
-        ax.bar(np.arange(len(envs)) + (k - (len(methods) - 1) / 2) * width, values, width, label=labels[method])
+        values = [(100.0 * v if as_percent else v) if v is not None else np.nan for v in values]
+        bars = ax.bar(np.arange(len(envs)) + (k - (len(methods) - 1) / 2) * width, values, width,
+                      label=f'{labels[method]} (ours)')
+        colours[method] = bars.patches[0].get_facecolor() if bars.patches else None
+    for method, value in (paper or {}).items():
+        ax.axhline(100.0 * value if as_percent else value, color=colours.get(method), ls='--', lw=1.2,
+                   label=f'{labels[method]}: paper, overall ({value:g})')
     ax.set_xticks(np.arange(len(envs)), envs)
     ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.grid(axis='y', alpha=0.3)
-    ax.legend(fontsize=8)
+    if log_scale:
+        ax.set_yscale('log')
+    ax.set_title(textwrap.fill(title, 70), fontsize=10)
+    ax.grid(axis='y', alpha=0.3, which='both' if log_scale else 'major')
+    plots.legend_outside(ax, fontsize=8)
     plots.save(fig, path)
