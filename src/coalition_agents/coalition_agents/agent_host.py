@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 import rclpy
 from rclpy.exceptions import ParameterException
@@ -60,6 +59,7 @@ from rclpy.parameter import Parameter
 
 from collab_tools import qos
 from collab_tools.names import TeamNode, check_robot_name, join
+from collab_tools.core.input_files import yaml_file_problem
 from collab_tools.core.settings import Setting, SettingsSchema
 from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
@@ -123,16 +123,12 @@ def _robots_problem(robots: list[str]) -> str | None:
     return None
 
 
-def _file_problem(path: str) -> str | None:
-    return None if not path or Path(path).is_file() else f'no such file {path!r}'
-
-
 #: The host's own parameters (all read-only: they shape the process at start-up).
 HOST_SETTINGS = SettingsSchema(
     Setting('robots', [''], 'robots whose schema_agent this process hosts (node <host namespace>/<robot>/schema_agent '
             'each)', required=True, check=_robots_problem),
     Setting('agent_parameters', '', "optional: one more ROS 2 parameter file for the hosted schema_agent nodes only, "
-            "read after the host's own parameter files (which the agents read too); '' = none", check=_file_problem),
+            "read after the host's own parameter files (which the agents read too); '' = none", check=yaml_file_problem),
     Setting('linger', 1.0, 'wall s to keep spinning once every exit_when_done agent is done', low=0.0, high=3600.0),
     Setting('wait_for_recorder', 0.0, 'wall s to wait for a subscriber of the agent channel (the bag recorder) '
             'before the agents start; 0 = do not wait', low=0.0, high=3600.0),

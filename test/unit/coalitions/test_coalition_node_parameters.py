@@ -33,7 +33,7 @@ def test_the_host_forwards_its_parameter_files_to_its_agents():
     ({'robots': ['1robot']}, 'parameter robots: must be a ROS name token'),
     ({}, 'parameter robots: required'),
     ({'robots': ['a'], 'agent_parameters': '/nowhere/agents.yaml'},
-     "parameter agent_parameters: no such file '/nowhere/agents.yaml'"),
+     "parameter agent_parameters: file '/nowhere/agents.yaml': does not exist"),
     ({'robots': ['a'], 'executor': 'many'}, 'parameter executor: must be one of single, multi'),
     ({'robots': ['a'], 'work_slice': 0.0}, 'parameter work_slice: must be in (0, 1]'),
 ])

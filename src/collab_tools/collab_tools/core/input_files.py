@@ -253,6 +253,17 @@ def read_yaml_file(path: Any, what: str = 'file', error: ErrorType = Configurati
     return data
 
 
+def yaml_file_problem(path: str) -> str | None:
+    """Why the YAML file a path parameter names cannot be read (None when it can, or for ''): a
+    :class:`~.settings.Setting` ``check`` for a file handed to rcl, which would block on a FIFO."""
+    try:
+        if path:
+            read_yaml_file(path)
+    except ConfigurationError as error:
+        return str(error)
+    return None
+
+
 # --- images --------------------------------------------------------------------------------------
 
 IMAGE_FORMATS = 'a PNG, JPEG, BMP or PNM (PBM, PGM, PPM) image'
