@@ -24,6 +24,8 @@ from .environment import Environment, RobotType
 from .occupancy import OccupancyCells, environment_from_cells, quaternion_yaw
 
 PATH_Z, GOAL_Z, TEXT_Z = 0.02, 0.01, 0.5
+#: What a status text shows of the engine's message (an infeasible round explains every role).
+STATUS_CHARS = 160
 
 
 def environment_of_grid(msg) -> Environment:
@@ -82,8 +84,9 @@ def assignment_markers(assignment, colours: dict[str, tuple], frame: str) -> lis
                                 color=(colour[0], colour[1], colour[2], 0.6)))
         specs.append(MarkerSpec('roles', i, 'text', frame, position=(x, y, TEXT_Z), scale=(0, 0, 0.15),
                                 text=f'{robot}: {role}'))
-    status = f'round {int(assignment.round)}: {assignment.status}' + (f' ({assignment.message})'
-                                                                       if assignment.message else '')
+    message = str(assignment.message)
+    message = message if len(message) <= STATUS_CHARS else message[:STATUS_CHARS - 3] + '...'
+    status = f'round {int(assignment.round)}: {assignment.status}' + (f' ({message})' if message else '')
     specs.append(MarkerSpec('roles', count, 'text', frame, position=(0.0, 0.0, 2 * TEXT_Z), scale=(0, 0, 0.2),
                             text=status))
     return specs
