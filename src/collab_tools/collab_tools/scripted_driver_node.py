@@ -12,8 +12,8 @@ from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from std_msgs.msg import Bool
 
-from .core.drive_plan import PlanError, load_plan
-from .core.tool_settings import DRIVER_SETTINGS
+from .core.drive_plan import PlanError
+from .core.tool_settings import DRIVER_SETTINGS, read_plan_parameter
 from .node_support import run
 from .parameters import NodeParameters
 from .qos import COMMAND_OUT, LATCHED
@@ -26,7 +26,7 @@ class ScriptedDriver(Node):
         params = NodeParameters(self)
         values = params.declare_schema(DRIVER_SETTINGS, on_change={'command_rate': self._set_rate})
         plan_file, rate = values['plan_file'], values['command_rate']
-        self.plan = load_plan(plan_file)
+        self.plan = read_plan_parameter(plan_file)
         self.cmd_pubs = {robot: self.create_publisher(Twist, f'{robot}/cmd_vel', COMMAND_OUT)
                          for robot in self.plan.robots}
         self.done_pub = self.create_publisher(Bool, '~/done', LATCHED)

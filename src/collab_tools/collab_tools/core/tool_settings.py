@@ -4,6 +4,8 @@ from __future__ import annotations
 import re
 
 from .bag_storage import STORAGE_PRESETS
+from .drive_plan import DrivePlan, PlanError, load_plan
+from .errors import ConfigurationError
 from .settings import Setting, SettingsSchema
 
 #: Topics the recorder leaves out when it records everything (as `ros2 bag record -a` does).
@@ -72,3 +74,11 @@ DRIVER_SETTINGS = SettingsSchema(
     Setting('command_rate', 20.0, 'Hz at which commands are published (of the node clock)',
             low=0.0, high=1000.0, low_open=True, dynamic=True),
 )
+
+
+def read_plan_parameter(path: str) -> DrivePlan:
+    """The drive plan of the scripted driver's ``plan_file`` parameter; errors name the parameter."""
+    try:
+        return load_plan(path)
+    except PlanError as error:
+        raise ConfigurationError(f'parameter plan_file: {error}') from None
