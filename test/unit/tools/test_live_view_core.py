@@ -103,3 +103,29 @@ def test_marker_specs_refuse_what_a_viewer_cannot_draw():
     assert len(wedge) == 12 and max(abs(p[1]) for p in wedge) == pytest.approx(2.0 * 0.7071, abs=1e-3)
     assert fan(0.0, 1.0) == () and rgba((2.0, -1.0, 0.5), 0.3) == (1.0, 0.0, 0.5, 0.3)
     assert set(MARKER_SOURCES) == {'sgcm', 'roles', 'coalitions'}
+
+
+def test_live_option_addresses_and_a_busy_port_refused_before_anything_starts(monkeypatch):
+    import socket
+
+    from collab_tools.orchestration import live
+    monkeypatch.delenv(live.ENVIRONMENT, raising=False)
+    assert live.from_environment() is None
+    assert live.parse_address('') == live.LiveView('127.0.0.1', 8765)
+    assert live.parse_address('0.0.0.0:9000') == live.LiveView('0.0.0.0', 9000)
+    assert live.parse_address('9001') == live.LiveView('127.0.0.1', 9001)
+    for bad, words in (('laptop:80', 'host'), ('127.0.0.1:0', 'port'), ('x', 'port')):
+        with pytest.raises(ConfigurationError, match=f'--live: {words}'):
+            live.parse_address(bad)
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(ConfigurationError, match=f'cannot serve on 127.0.0.1:{port}'):
+            live.enable(f'127.0.0.1:{port}')
+    assert live.from_environment() is None            # nothing was turned on
+    free = live.enable(f'127.0.0.1:{port}')  # free again once closed
+    assert live.from_environment() == free
+    specs = free.specs()
+    assert [(s.executable, s.required) for s in specs] == [('live_view', False), ('visualiser', False)]
+    assert specs[0].parameters == [{'host': '127.0.0.1', 'port': port}]
