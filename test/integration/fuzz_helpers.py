@@ -11,7 +11,7 @@ from rosgraph_msgs.msg import Clock
 from bridge_helpers import wait_for_subscriber
 
 RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 #: Stamps no clock can hold (rclpy raised for the first; the second kind was folded into seconds) and one
 #: 68 years ahead of any simulated clock.

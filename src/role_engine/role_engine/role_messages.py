@@ -48,11 +48,12 @@ def trajectory_of(msg: ProcessRole) -> np.ndarray:
     """(N+1, 4) states of a message; ValueError when the arrays disagree or are too short."""
     lengths = {len(msg.x), len(msg.y), len(msg.vx), len(msg.vy)}
     if len(lengths) != 1 or not 2 <= min(lengths) <= max(lengths) <= MAX_ROLE_STATES:
-        raise ValueError(f'process role of {msg.robot[:40]!r}: x, y, vx, vy must have one equal length in '
+        raise MalformedInput(kind='process role: arrays', message=f'process role of {msg.robot[:40]!r}: x, y, vx, vy must have one equal length in '
                          f'[2, {MAX_ROLE_STATES}] (got {len(msg.x)}, {len(msg.y)}, {len(msg.vx)}, {len(msg.vy)})')
     if not (msg.dt > 0 and np.isfinite(msg.dt) and msg.dt * (len(msg.x) - 1) <= MAX_ROLE_SECONDS):
-        raise ValueError(f'process role of {msg.robot[:40]!r}: dt must be > 0 and the role at most '
-                         f'{MAX_ROLE_SECONDS:g} s long (got dt {msg.dt} for {len(msg.x) - 1} steps)')
+        raise MalformedInput(kind='process role: dt', message=f'process role of {msg.robot[:40]!r}: dt must be '
+                             f'> 0 and the role at most {MAX_ROLE_SECONDS:g} s long (got dt {msg.dt} for '
+                             f'{len(msg.x) - 1} steps)')
     return np.column_stack([msg.x, msg.y, msg.vx, msg.vy]).astype(float)
 
 
@@ -60,21 +61,22 @@ def shared_role(msg: ProcessRole, team: Collection[str] | None = None) -> Shared
     """The message as a SharedRole; ValueError naming the field when it is malformed, MalformedInput
     ``unknown robot`` when ``team`` (robot names) is given and does not name its robot."""
     if not msg.robot:
-        raise ValueError('process role: robot must be a non-empty name')
+        raise MalformedInput('process role: robot must be a non-empty name', kind='process role: no robot')
     if team is not None and msg.robot not in team:
         raise MalformedInput(f'process role: robot {msg.robot[:40]!r} is not in the team', kind='unknown robot')
     states = trajectory_of(msg)
     if not np.isfinite(states).all():
-        raise ValueError(f'process role of {msg.robot!r}: x, y, vx, vy must be finite')
+        raise MalformedInput(f'process role of {msg.robot!r}: x, y, vx, vy must be finite',
+                             kind='process role: not finite')
     if np.abs(states[:, :2]).max() > MAX_ROLE_COORDINATE or np.abs(states[:, 2:]).max() > MAX_ROLE_SPEED:
-        raise ValueError(f'process role of {msg.robot!r}: x, y must be within +-{MAX_ROLE_COORDINATE:g} m and '
-                         f'vx, vy within +-{MAX_ROLE_SPEED:g} m/s')
+        raise MalformedInput(f'process role of {msg.robot!r}: x, y must be within +-{MAX_ROLE_COORDINATE:g} m and '
+                             f'vx, vy within +-{MAX_ROLE_SPEED:g} m/s', kind='process role: out of bounds')
     if not (np.isfinite(msg.radius) and 0 <= msg.radius <= MAX_ROLE_RADIUS):
-        raise ValueError(f'process role of {msg.robot!r}: radius must be in [0, {MAX_ROLE_RADIUS:g}] m '
-                         f'(got {msg.radius})')
+        raise MalformedInput(f'process role of {msg.robot!r}: radius must be in [0, {MAX_ROLE_RADIUS:g}] m '
+                             f'(got {msg.radius})', kind='process role: radius')
     if not (np.isfinite(msg.start_time) and abs(msg.start_time) <= MAX_START_TIME):
-        raise ValueError(f'process role of {msg.robot!r}: start_time must be finite, within +-{MAX_START_TIME:g} s '
-                         f'(got {msg.start_time})')
+        raise MalformedInput(f'process role of {msg.robot!r}: start_time must be finite, within '
+                             f'+-{MAX_START_TIME:g} s (got {msg.start_time})', kind='process role: start_time')
     return SharedRole(msg.robot, states, msg.dt * (len(states) - 1), msg.radius, msg.start_time)
 
 

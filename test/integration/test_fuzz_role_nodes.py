@@ -1,0 +1,154 @@
+"""Fuzzing the role engine, the robot tracker and the role players (issue 16 items 1-2).
+
+Four robots start 0.4 m outside their diamond (a short formation, so the test stays short). Once
+the players play their roles, every role node gets: process roles of an unknown robot, with empty,
+mismatched, 100,000-state, NaN, huge-dt and infinite-radius arrays, and a flood of them; an
+assignment whose initial role is malformed (it ended all four players with exit code 2) and one
+with a negative stamp; a team description with no robot; NaN tracked poses; camera images and a
+map with invalid stamps; a bad /clock. Every node stays up, logs each kind of rejection once, and
+the formation still completes.
+"""
+
+import math
+import time
+from pathlib import Path
+
+import yaml
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import OccupancyGrid
+from rclpy.qos import qos_profile_sensor_data
+from role_interfaces.msg import ProcessRole, RoleAssignment, Team
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Image
+
+from collab_tools.orchestration.node_process import NodeSpec
+from fuzz_helpers import BAD_STAMPS, HUGE, LATCHED, NEGATIVE, assert_rejected_once_per_kind, bad_clock, \
+    clock_rejections_ok, flood, publish_all, rejections
+from role_engine.core.formation_task import load_formation_task
+from role_helpers import engine_spec, player_process, player_spec, tracker_spec
+from test_role_nodes import ROBOTS, assert_formation_completed, watch_ground_truth_and_arrivals
+
+CONFIG = Path(__file__).resolve().parents[2] / 'config'
+#: Start poses 0.4 m outside the diamond's vertices (size 2.2: (+-1.1, 0), (0, +-1.1)), facing in.
+POSES = {'pioneer_1': [-1.5, 0.0, 0.0], 'pioneer_2': [1.5, 0.0, math.pi], 'burger_1': [0.0, -1.5, math.pi / 2],
+         'burger_2': [0.0, 1.5, -math.pi / 2]}
+
+
+def short_formation(directory: Path) -> Path:
+    """formation_demo with the robots near their diamond, only the pillar, and 6 s roles."""
+    scenario = yaml.safe_load((CONFIG / 'scenarios' / 'roles_formation.yaml').read_text())
+    for robot in scenario['mobile_robots']:
+        robot['pose'] = POSES[robot['name']]
+    scenario['obstacles']['boxes'] = [b for b in scenario['obstacles']['boxes'] if b['name'] == 'pillar']
+    (directory / 'scenario.yaml').write_text(yaml.safe_dump(scenario))
+    settings = yaml.safe_load((CONFIG / 'roles' / 'formation_demo.yaml').read_text())
+    settings['scenario'] = str(directory / 'scenario.yaml')
+    settings['trajectory'] = {'total_time': 6.0, 'states': 13}
+    path = directory / 'settings.yaml'
+    path.write_text(yaml.safe_dump(settings))
+    return path
+
+
+def role(robot, round_, stamp=None, **fields):
+    values = {'robot': robot, 'role_id': 'diamond_0', 'round': round_, 'version': 7, 'start_time': 1.0, 'dt': 0.5,
+              'radius': 0.2, 'x': [0.0, 0.1, 0.2], 'y': [0.0, 0.0, 0.0], 'vx': [0.2] * 3, 'vy': [0.0] * 3}
+    values.update(fields)
+    msg = ProcessRole(**values)
+    if stamp is not None:
+        msg.header.stamp = stamp
+    return msg
+
+
+def malformed_roles(round_):
+    many = [0.0] * 100_000
+    return [
+        role('ghost_robot', round_),                                        # unknown id
+        role('pioneer_1', round_, x=[], y=[], vx=[], vy=[]),                # empty arrays
+        role('pioneer_1', round_, x=[0.0, 1.0, 2.0], y=[0.0]),             # mismatched
+        role('pioneer_1', round_, x=many, y=many, vx=many, vy=many),        # huge arrays
+        role('pioneer_1', round_, x=[math.nan, 0.0, 0.0]),                  # NaN
+        role('pioneer_1', round_, dt=1e300),                                # a role of 1e300 s
+        role('pioneer_1', round_, radius=math.inf),
+        role('pioneer_1', round_, x=[1e308, 0.0, 0.0]),                     # finite, absurd
+    ]
+
+
+def bad_assignments(current):
+    """An assignment of the next round whose initial role cannot be played, and one with a negative stamp."""
+    stamp = Time(sec=current.header.stamp.sec, nanosec=current.header.stamp.nanosec)
+    broken = RoleAssignment(round=current.round + 1, status='assigned', message='fuzz', robots=list(ROBOTS),
+                            role_ids=[f'diamond_{i}' for i in range(4)], goal_x=[0.0] * 4, goal_y=[0.0] * 4,
+                            initial_roles=[role(robot, current.round + 1, dt=1e6) for robot in ROBOTS])
+    broken.header.stamp = stamp
+    negative = RoleAssignment(round=current.round + 1, status='assigned')
+    negative.header.stamp = NEGATIVE
+    return [broken, negative]
+
+
+def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node, tmp_path):
+    began = time.monotonic()
+    settings = short_formation(tmp_path)
+    session.start(NodeSpec('pybullet_bridge', 'pybullet_bridge', name='pybullet_bridge', use_sim_time=False,
+                           parameters=[{'scenario': str(tmp_path / 'scenario.yaml'), 'real_time_factor': 0.5,
+                                        'ground_truth_rate': 20.0}]))
+    engine = session.start(engine_spec(settings))
+    tracker = session.start(tracker_spec())
+    for robot in ROBOTS:
+        session.start(player_spec(robot, settings, required=True))
+    task_truth, arrived = watch_ground_truth_and_arrivals(session, load_formation_task(settings))
+    assignment = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment',
+                                          timeout=90, latched=True)
+    assert assignment.status == 'assigned', assignment.message
+    session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
+                             predicate=lambda m: m.version >= 1, timeout=60)
+    round_ = assignment.round
+
+    # The channel: engine + four players hear it.
+    channel = publish_all(ros_node, ProcessRole, '/roles/channel', malformed_roles(round_), subscribers=5)
+    flood(channel, role('pioneer_1', round_, x=[math.nan] * 3), 200, seconds=1.0)
+    # The assignment (players only) and the team (players and tracker; the tracker converts it).
+    # (the players keep one assignment: a pause lets each be taken before the next)
+    publish_all(ros_node, RoleAssignment, '/roles/assignment', bad_assignments(assignment), qos=LATCHED,
+                subscribers=4, pause=0.5)
+    publish_all(ros_node, Team, '/roles/team', [Team()], qos=LATCHED, subscribers=5)
+    # A player's tracked pose, the camera, the map.
+    nan_pose = PoseStamped()
+    nan_pose.pose.position.x = math.nan
+    publish_all(ros_node, PoseStamped, '/pioneer_1/tracked_pose', [nan_pose] * 3, qos=qos_profile_sensor_data)
+    images = []
+    for stamp in BAD_STAMPS:
+        image = Image(encoding='rgb8', height=0, width=0, step=0)
+        image.header.stamp = stamp
+        images.append(image)
+    publish_all(ros_node, Image, '/top_camera/image_raw', images, qos=qos_profile_sensor_data, subscribers=2)
+    bad_map = OccupancyGrid()
+    bad_map.header.stamp = NEGATIVE
+    publish_all(ros_node, OccupancyGrid, '/roles/map', [bad_map], qos=LATCHED, subscribers=4)
+    clock = bad_clock(ros_node, subscribers=6)
+    flood(clock, Clock(clock=HUGE), 30, seconds=0.3)
+    session.check_alive()
+
+    assert_formation_completed(task_truth, arrived, assignment, timeout=60.0)
+    session.check_alive()
+    engine_log = engine.log_path.read_text()
+    assert_rejected_once_per_kind(engine_log, '/roles/channel', ['unknown robot'])
+    assert len(rejections(engine_log, '/roles/channel')) >= 5
+    assert '/roles/channel: 100 malformed messages dropped so far' in engine_log
+    assert_rejected_once_per_kind(engine_log, '/top_camera/image_raw', ['header.stamp: negative',
+                                                                         'header.stamp: far ahead'])
+    clock_rejections_ok(engine_log)
+    tracker_log = tracker.log_path.read_text()
+    assert_rejected_once_per_kind(tracker_log, '/roles/team', ['team description'])
+    clock_rejections_ok(tracker_log)
+    for robot in ROBOTS:
+        log = player_process(session, robot).log_path.read_text()
+        assert_rejected_once_per_kind(log, '/roles/channel', ['unknown robot'])
+        kinds = rejections(log, '/roles/assignment')
+        assert 'header.stamp: negative' in kinds and any(k.startswith('assignment: ') for k in kinds), kinds
+        assert_rejected_once_per_kind(log, '/roles/map', ['header.stamp: negative'])
+        clock_rejections_ok(log)
+        assert 'no role' not in log, robot               # the broken assignment never reached the player
+    pioneer = player_process(session, 'pioneer_1').log_path.read_text()
+    assert rejections(pioneer, '/pioneer_1/tracked_pose'), 'the NaN pose was dropped and logged'
+    print(f'role nodes fuzz: {time.monotonic() - began:.0f} s (wall)')
