@@ -141,7 +141,7 @@ def _text(image, text: str, origin, colour=(255, 255, 255), scale: float = 0.45,
     (width, height), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
     x = int(min(max(origin[0], 2), image.shape[1] - width - 2))
     y = int(min(max(origin[1], height + 2), image.shape[0] - 4))
-    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, outline, 3, cv2.LINE_AA)
+    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, outline, 2, cv2.LINE_AA)
     cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
 
 
@@ -176,6 +176,8 @@ def _draw(image: np.ndarray, markers: _Markers, scale: float, caption: str) -> N
             cv2.circle(image, tuple(points[-1]), 4, colour, -1, cv2.LINE_AA)
             _text(image, robot, points[-1] + (8, -8), colour, scale=0.5, outline=(255, 255, 255))
     _text(image, caption, (8, image.shape[0] - 10), scale=0.5)
+    if markers.guidance is not None and geometry is not None:
+        _text(image, 'red: leader move   cyan: advised follower move', (8, 18), scale=0.45)
 
 
 def _draw_sgcm(image: np.ndarray, markers: _Markers, px) -> None:
@@ -188,10 +190,12 @@ def _draw_sgcm(image: np.ndarray, markers: _Markers, px) -> None:
         return
     colours = list(g.state.colours)
     counts = np.asarray(g.state.counts).reshape(g.state.rows * g.state.cols, max(1, len(colours)))
+    width, depth = table.size[0] / table.cols, table.size[1] / table.rows
     for cell, cell_counts in enumerate(counts):
         text = ' '.join(f'{c[0]}{n}' for c, n in zip(colours, cell_counts) if n)
-        if text and (point := px([table.cell_center(cell)])) is not None:
-            _text(image, text, point[0] + (-14, 4), scale=0.4)
+        x, y = table.cell_center(cell)
+        if text and (point := px([(x - 0.42 * width, y + 0.3 * depth)])) is not None:   # the cell's top left
+            _text(image, text, point[0], scale=0.4)
     for move, colour in ((g.leader_move, (0, 0, 255)), (g.recommended_follower_move, (255, 200, 0))):
         if move.empty:
             continue
@@ -201,9 +205,9 @@ def _draw_sgcm(image: np.ndarray, markers: _Markers, px) -> None:
 
 
 def _caption(t: float, markers: _Markers) -> str:
-    text = f't = {t:7.2f} s'
+    text = f't = {t:.2f} s'
     if markers.guidance is not None:
-        text += f'   round {markers.guidance.round}  (red: leader, cyan: advised follower move)'
+        text += f'   round {markers.guidance.round}'
     return text
 
 

@@ -74,7 +74,7 @@ def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path
     if any(g.strategy == 'sgcm' for g in guidance):
         values.plot(rounds, [g.predicted_leader_value for g in guidance], 'o-', label='v_0^A (leader)')
         values.plot(rounds, [g.predicted_follower_value for g in guidance], 's--', label='v_0^B (follower)')
-        values.legend(fontsize=8)
+        values.legend(fontsize=8, loc='upper left', bbox_to_anchor=(1.01, 1.0))  # beside the values, over none
     values.set_ylabel('predicted value')
     ending = (final.status or 'goal reached') if final else 'no end recorded'
     values.set_title(f'{guidance[0].strategy}, T={guidance[0].horizon}: {len(rounds)} rounds, {ending}')
