@@ -86,7 +86,11 @@ class Visualiser(Node):
             handler(msg, resolved)
             if marker_input.redraw:
                 self._publish(name)
-        self.inputs.subscribe(import_interface(marker_input.type_name), topic, on_message, QOS[marker_input.qos])
+        try:
+            msg_type = import_interface(marker_input.type_name)
+        except ValueError as error:  # the source's message package is not installed
+            raise ConfigurationError(f'parameter sources: {name}: {error}') from None
+        self.inputs.subscribe(msg_type, topic, on_message, QOS[marker_input.qos])
 
     def _discover(self) -> None:
         """Subscribe to every topic of the type-matched inputs in this node's namespace."""
