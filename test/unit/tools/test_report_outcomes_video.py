@@ -256,3 +256,29 @@ def test_no_outcome_is_said_plainly(tmp_path, make_bag, capsys):
     assert main([str(run)]) == 0
     assert capsys.readouterr().out.startswith('outcome: none recorded')
     assert json.loads((run / 'report' / 'report.json').read_text())['passed'] is None
+
+
+def test_a_demo_whose_session_failed_says_so_with_what_its_bag_shows(tmp_path, make_bag):
+    from types import SimpleNamespace
+
+    from collab_tools.experiments.session_outcome import session_outcome
+
+    def reader(bag, summary):
+        return Outcome('bodies', 'formed', 'two robots in place', True, checks={'formed': True})
+    register_outcome('test_bodies', {'bridge_interfaces/msg/BodyStates'}, reader)
+    try:
+        bag = make_bag(tmp_path / 'run' / 'bags' / 'b', n=3)
+        ok = session_outcome('roles', SimpleNamespace(exit_code=0, condition_met=True, bag=bag,
+                                                      run_dir=tmp_path / 'run', message='condition met'))
+        failed = session_outcome('roles', SimpleNamespace(exit_code=3, condition_met=False, bag=bag,
+                                                          run_dir=tmp_path / 'run', message='role_engine exited 1'))
+        nothing = session_outcome('sgcm', SimpleNamespace(exit_code=0, condition_met=True, bag=None,
+                                                          run_dir=tmp_path / 'run', message='condition met'))
+    finally:
+        unregister_outcome('test_bodies')
+    assert (ok.status, ok.passed, ok.summary) == ('formed', True, 'two robots in place')
+    assert ok.checks == {'session_exit_0': True, 'formed': True}
+    assert (failed.status, failed.passed) == ('FAILED', False)
+    assert failed.line() == ('roles: FAILED — exit 3 (role_engine exited 1); two robots in place '
+                             '[failed: session_exit_0]')
+    assert (nothing.status, nothing.passed, nothing.summary) == ('unverified', False, 'no bag recorded')

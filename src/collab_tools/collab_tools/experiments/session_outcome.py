@@ -41,6 +41,8 @@ def session_outcome(subject: str, result, what: str = '') -> Outcome:
         return Outcome(subject, 'FAILED', f'exit {result.exit_code} ({result.message})'
                        + (f'; {summary}' if summary != result.message else ''), False, figures, checks)
     status = found[0].status if len(found) == 1 else ('completed' if result.condition_met else 'ended')
+    if problem:   # the session ended as planned, but nothing shows what happened
+        status = 'unverified'
     passed = all(o.passed is not False for o in found) and not problem
     if what:
         figures['what'] = what
