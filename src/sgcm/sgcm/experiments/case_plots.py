@@ -5,7 +5,9 @@ from collab_tools.experiments import plots
 
 
 def case_grid(count: int, columns: int = 5):
-    """(fig, axes): ``count`` panels with round / stage-wise utility axes; spare panels hidden."""
+    """(fig, axes): ``count`` panels with round / stage-wise utility axes; spare panels hidden (no
+    more columns than panels, so two cases do not sit in a strip of five)."""
+    columns = max(1, min(columns, count))
     rows = (count + columns - 1) // columns
     fig, axes = plots.figure(3.2 * columns, 2.6 * rows, rows=rows, columns=columns, squeeze=False)
     for index, ax in enumerate(axes.flat):
