@@ -178,7 +178,11 @@ def load_plot_plugins() -> list[str]:
 def _export_video(bag: Path, summary: BagSummary, plot_dir: Path, out_dir: Path, fmt: str,
                   speed: float) -> list[dict]:
     from .core.video import export_video   # OpenCV only when a video is asked for
-    info = export_video(bag, summary, plot_dir / f'top_camera.{fmt}', fmt, speed=speed, layout=scene_of_bag(bag))
+    try:
+        info = export_video(bag, summary, plot_dir / f'top_camera.{fmt}', fmt, speed=speed, layout=scene_of_bag(bag))
+    except Exception as error:  # noqa: BLE001 - a broken frame must not sink the report
+        print(f'report: {bag.name}: no video ({type(error).__name__}: {error})', file=sys.stderr)
+        return []
     if info is None:
         print(f'report: {bag.name}: no camera frames recorded, no video', file=sys.stderr)
         return []
