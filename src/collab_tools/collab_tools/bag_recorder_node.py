@@ -82,7 +82,6 @@ class BagRecorder(Node):
         self.queue_seconds, self.queue_depth = values['queue_seconds'], values['queue_depth']
         self.loss = LossLedger()
         self.publisher_counts: dict[str, int] = {}
-        self.status_path = None
 
         self.type_names: set[str] = set()
         self.failures: dict[str, str] = {}
@@ -169,14 +168,13 @@ class BagRecorder(Node):
             depth = queue_depth(self.rates.get(topic, 0.0), self.queue_seconds, self.queue_depth, QUEUE_DEPTH_MAX)
             events = SubscriptionEventCallbacks(
                 message_lost=lambda info, topic=topic: self.loss.reported_lost(topic, info.total_count))
+            callback, qos = (lambda data, info, topic=topic: self._write(topic, data, info)), \
+                subscription_qos(offered, depth)
             try:
-                subscription = self.create_subscription(
-                    msg_type, topic, lambda data, info, topic=topic: self._write(topic, data, info),
-                    subscription_qos(offered, depth), raw=True, event_callbacks=events)
+                subscription = self.create_subscription(msg_type, topic, callback, qos, raw=True,
+                                                        event_callbacks=events)
             except UnsupportedEventTypeError:  # an rmw without message_lost: the sequence gaps still count
-                subscription = self.create_subscription(
-                    msg_type, topic, lambda data, info, topic=topic: self._write(topic, data, info),
-                    subscription_qos(offered, depth), raw=True)
+                subscription = self.create_subscription(msg_type, topic, callback, qos, raw=True)
         except Exception as error:  # whatever it is, the topic is missing from the bag: fail the run
             self._fail(topic, f'{type(error).__name__}: {error}')
             return
@@ -187,14 +185,11 @@ class BagRecorder(Node):
         self.loss.received(topic, info.get('publication_sequence_number'), self.publisher_counts.get(topic, 1))
         try:
             self.writer.write(topic, self.get_clock().now().nanoseconds, data)
-        except RuntimeError:
+        except Exception:
             if self.writer.closed:  # a message arriving while the bag closes is expected
                 return
             self.loss.write_failed(topic)
-            raise
-        except Exception:
-            self.loss.write_failed(topic)
-            raise
+            raise  # a storage error: the recorder stops, its bag is repaired (bag_reindex)
         self.loss.written(topic)
 
     def _flush(self) -> None:
