@@ -38,6 +38,15 @@ def wants_bar(log: Log) -> bool:
     return log in (print, write) and sys.stdout.isatty() and os.environ.get('COLLAB_PROGRESS', '') != 'plain'
 
 
+def _size_known() -> bool:
+    """The terminal reports its size (a pseudo-terminal without one says 0 x 0: tqdm would draw nothing)."""
+    try:
+        size = os.get_terminal_size(sys.stderr.fileno())
+        return size.columns > 0 and size.lines > 0
+    except (OSError, ValueError):
+        return False
+
+
 class Progress:
     """``total`` steps of which ``done`` are finished already (a resumed run): ``advance(text)`` per step."""
 
@@ -51,7 +60,7 @@ class Progress:
             from tqdm import tqdm   # imported here: listing experiments must stay light
 
             self._bar = tqdm(total=self.total, initial=self.done, desc=label, unit='step', file=sys.stderr,
-                             dynamic_ncols=True, leave=False)
+                             leave=False, **({'dynamic_ncols': True} if _size_known() else {'ncols': 100, 'nrows': 24}))
             _bars.append(self._bar)
 
     def elapsed(self) -> float:
