@@ -282,3 +282,13 @@ def test_a_demo_whose_session_failed_says_so_with_what_its_bag_shows(tmp_path, m
     assert failed.line() == ('roles: FAILED — exit 3 (role_engine exited 1); two robots in place '
                              '[failed: session_exit_0]')
     assert (nothing.status, nothing.passed, nothing.summary) == ('unverified', False, 'no bag recorded')
+
+
+def test_the_subsystems_register_their_outcome_and_scene_readers():
+    from collab_tools.core import run_outcome, scene_layout
+    from collab_tools.report_cli import load_plot_plugins
+    loaded = set(load_plot_plugins())
+    assert {'sgcm.experiments.report_plots', 'role_engine.experiments.formation_bag',
+            'coalition_agents.experiments.coalition_bag', 'pybullet_bridge.report_scene'} <= loaded
+    assert {'scripted_drive', 'sgcm', 'roles_formation', 'coalitions'} <= set(run_outcome._READERS)
+    assert 'pybullet_bridge' in scene_layout._READERS
