@@ -15,8 +15,8 @@ import importlib
 import sys
 
 from rclpy.clock import Clock, ClockType
+from rcl_interfaces.srv import GetParameters
 from rclpy.node import Node
-from rclpy.parameter_client import AsyncParameterClient
 from visualization_msgs.msg import MarkerArray
 
 from . import qos
@@ -72,6 +72,7 @@ class Visualiser(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0 / values['rate'], self._publish_timed, clock=steady)
         self.create_timer(values['discovery_period'], self._discover, clock=steady)
+        self.create_timer(0.5, self._send_parameter_requests, clock=steady)
         self.get_logger().info(f'publishing {", ".join("markers/" + n for n in self.sources)} '
                                f'(frame {values["world_frame"]})')
         self._discover()
@@ -108,26 +109,33 @@ class Visualiser(Node):
     def _ask_publisher(self, name: str, marker_input, topic: str) -> None:
         """Read a parameter the source needs from the node publishing ``topic`` (once it has one)."""
         wanted = marker_input.publisher_parameter
-        source = self.sources[name]
-        if wanted is None or not source.wants_parameter(wanted) or (name, wanted) in self.parameter_requests:
+        key = (name, wanted)
+        if wanted is None or key in self.parameter_requests or not self.sources[name].wants_parameter(wanted):
             return
         publishers = self.get_publishers_info_by_topic(topic)
-        if not publishers:
-            return
-        info = publishers[0]
-        remote = info.node_namespace.rstrip('/') + '/' + info.node_name
-        client = AsyncParameterClient(self, remote)
-        self.parameter_requests[(name, wanted)] = client
+        if publishers:
+            info = publishers[0]
+            remote = info.node_namespace.rstrip('/') + '/' + info.node_name
+            client = self.create_client(GetParameters, f'{remote}/get_parameters')
+            self.parameter_requests[key] = (remote, client, None)
+            self._send_parameter_requests()
 
-        def answered(future):
-            try:
-                value = future.result().values[0]
-                source.set_parameter(wanted, value.string_value)
-                self.get_logger().info(f'{name}: {wanted} = {value.string_value!r} (from {remote})')
-                self._publish(name)
-            except Exception as error:  # no answer, no such parameter, a value the source refuses
-                self.get_logger().warning(f'{name}: cannot use {wanted} of {remote}: {error}')
-        client.get_parameters([wanted]).add_done_callback(answered)
+    def _send_parameter_requests(self) -> None:
+        """Send each parameter request once its service is discovered (a request before would be lost)."""
+        for (name, wanted), (remote, client, future) in list(self.parameter_requests.items()):
+            if future is None and client.service_is_ready():
+                future = client.call_async(GetParameters.Request(names=[wanted]))
+                future.add_done_callback(lambda f, n=name, w=wanted, r=remote: self._parameter_answer(n, w, r, f))
+                self.parameter_requests[(name, wanted)] = (remote, client, future)
+
+    def _parameter_answer(self, name: str, wanted: str, remote: str, future) -> None:
+        try:
+            value = future.result().values[0].string_value
+            self.sources[name].set_parameter(wanted, value)
+            self.get_logger().info(f'{name}: {wanted} = {value!r} (from {remote})')
+            self._publish(name)
+        except Exception as error:  # no such parameter, a value the source refuses: said once, not retried
+            self.get_logger().warning(f'{name}: cannot use {wanted} of {remote}: {error}')
 
     def _publish(self, name: str) -> None:
         now = self.get_clock().now()

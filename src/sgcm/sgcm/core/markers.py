@@ -101,8 +101,8 @@ def move_marker(task: TaskConfig, move, ns: str, marker_id: int, frame: str, hei
             raise ValueError(f'{ns}.{field}: {cell} is not a cell of the {task.rows} x {task.cols} grid')
     (x0, y0), (x1, y1) = _centre(task, source), _centre(task, target)
     z = task.workspace.table_height + height
-    return MarkerSpec(ns, marker_id, 'arrow', frame, scale=(0.012, 0.03, 0.03), color=_colour(task, str(move.colour), alpha),
-                      points=((x0, y0, z), (x1, y1, z)))
+    return MarkerSpec(ns, marker_id, 'arrow', frame, scale=(0.012, 0.03, 0.03),
+                      color=_colour(task, str(move.colour), alpha), points=((x0, y0, z), (x1, y1, z)))
 
 
 def _describe(task: TaskConfig, move) -> str:
