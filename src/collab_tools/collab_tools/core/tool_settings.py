@@ -6,7 +6,7 @@ import re
 from .bag_storage import STORAGE_PRESETS
 from .drive_plan import DrivePlan, PlanError, load_plan
 from .errors import ConfigurationError
-from .settings import Setting, SettingsSchema
+from .settings import Setting, SettingsSchema, echo
 
 #: Topics the recorder leaves out when it records everything (as `ros2 bag record -a` does).
 DEFAULT_EXCLUDE = ['/rosout', '/parameter_events']
@@ -18,7 +18,7 @@ def regex_problem(patterns: list[str]) -> str | None:
         try:
             re.compile(pattern)
         except re.error as error:
-            return f'invalid regular expression {pattern!r} ({error})'
+            return f'invalid regular expression {echo(pattern)} ({error})'
     return None
 
 
@@ -34,7 +34,7 @@ def parse_topic_rates(entries: list[str]) -> dict[str, float]:
         except ValueError:
             value = float('nan')
         if not sep or not topic or not 0.0 < value <= 1e6:
-            raise ValueError(f"{entry!r} is not 'TOPIC=HZ' with 0 < HZ <= 1e6")
+            raise ValueError(f"{echo(entry)} is not 'TOPIC=HZ' with 0 < HZ <= 1e6")
         rates[topic] = value
     return rates
 

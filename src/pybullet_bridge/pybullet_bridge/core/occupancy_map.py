@@ -31,6 +31,7 @@ import numpy as np
 from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.fields import Fields, fail, read_yaml_file
 from collab_tools.core.input_files import read_image_bytes, shown_path
+from collab_tools.core.settings import echo
 
 from .errors import ScenarioError
 
@@ -179,7 +180,7 @@ def _negate_flag(value, path: str, error) -> bool:
         return value
     if isinstance(value, int) and value in (0, 1):
         return bool(value)
-    raise fail(path, f'must be 0 or 1 (or false / true) (got {value!r})', error=error)
+    raise fail(path, f'must be 0 or 1 (or false / true) (got {echo(value)})', error=error)
 
 
 def nav2_map_from_data(data, source: Path, where: str, *, error=ScenarioError,
@@ -192,7 +193,7 @@ def nav2_map_from_data(data, source: Path, where: str, *, error=ScenarioError,
     resolution = fields.number('resolution', gt=0.0)
     origin_value = fields.raw('origin')
     if not isinstance(origin_value, (list, tuple)) or len(origin_value) != 3:
-        raise fail(fields.path_of('origin'), f'must be a list of 3 numbers [x, y, yaw] (got {origin_value!r})',
+        raise fail(fields.path_of('origin'), f'must be a list of 3 numbers [x, y, yaw] (got {echo(origin_value)})',
                    error=error)
     origin = fields.vector('origin', 3)
     negate = _negate_flag(fields.raw('negate'), fields.path_of('negate'), error)
@@ -203,7 +204,7 @@ def nav2_map_from_data(data, source: Path, where: str, *, error=ScenarioError,
                    f'(got {free_thresh:g})', error=error)
     mode = fields.string('mode', 'trinary')
     if mode not in NAV2_MODES:
-        raise fail(fields.path_of('mode'), f"must be {' or '.join(NAV2_MODES)} (got {mode!r}; scale and raw "
+        raise fail(fields.path_of('mode'), f"must be {' or '.join(NAV2_MODES)} (got {echo(mode)}; scale and raw "
                    'maps carry costs, not occupancy)', error=error)
     image_path = Path(image_field)
     if not image_path.is_absolute():

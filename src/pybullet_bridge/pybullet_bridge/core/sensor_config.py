@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from collab_tools.core.fields import Fields, fail, join_path, require_list
+from collab_tools.core.settings import echo
 
 from .errors import ScenarioError
 
@@ -106,7 +107,7 @@ def derived_sensor_seed(scenario_seed: int | None, robot_index: int) -> int:
 def _active(fields: Fields) -> bool:
     value = fields.raw('active', True)
     if not isinstance(value, bool):
-        raise fail(fields.path_of('active'), f'must be true or false (got {value!r})', error=ScenarioError)
+        raise fail(fields.path_of('active'), f'must be true or false (got {echo(value)})', error=ScenarioError)
     return value
 
 
@@ -123,7 +124,7 @@ def _parse_fiducial(value: Any, path: str) -> FiducialConfig:
         kinds = tuple(require_list(fields.raw('kinds'), kinds_path, error=ScenarioError))
         for index, kind in enumerate(kinds):
             if kind not in FIDUCIAL_KINDS:
-                raise fail(join_path(kinds_path, index), f'unknown kind {kind!r} '
+                raise fail(join_path(kinds_path, index), f'unknown kind {echo(kind)} '
                            f"(allowed: {', '.join(FIDUCIAL_KINDS)})", error=ScenarioError)
     return FiducialConfig(
         # The paper's Fig. 7 fiducials: 180 deg facing forward, 4 m.

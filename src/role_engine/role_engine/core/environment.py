@@ -35,6 +35,7 @@ import numpy as np
 from scipy import ndimage
 
 from collab_tools.core.fields import Fields, fail, read_yaml_file
+from collab_tools.core.settings import echo
 from pybullet_bridge.core.occupancy_map import Nav2Map, nav2_map_from_data, read_grey_image
 # (one reader for the simulation's and the planner's maps)
 
@@ -121,13 +122,13 @@ class RobotType:
         for key in ('radius', 'inflation_margin'):
             value = getattr(self, key)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-                raise RoleEngineError(f'robot_type {self.name!r}.{key}: must be a finite number >= 0 (got {value!r})')
+                raise RoleEngineError(f'robot_type {self.name!r}.{key}: must be a finite number >= 0 (got {echo(value)})')
         for key in ('max_linear_velocity', 'max_angular_velocity'):
             value = getattr(self, key)
             if value is not None and (not isinstance(value, (int, float)) or not math.isfinite(value)
                                       or value <= 0):
                 raise RoleEngineError(f'robot_type {self.name!r}.{key}: must be a finite number > 0 or None '
-                                      f'(got {value!r})')
+                                      f'(got {echo(value)})')
 
     @property
     def inflation(self) -> float:
@@ -220,7 +221,7 @@ def load_map_file(path: str | Path) -> Environment:
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)
     border = fields.raw('border_is_obstacle', True)
     if not isinstance(border, bool):
-        raise fail(fields.path_of('border_is_obstacle'), f'must be true or false (got {border!r})',
+        raise fail(fields.path_of('border_is_obstacle'), f'must be true or false (got {echo(border)})',
                    RoleEngineError)
     name = fields.string('name', path.stem)
     fields.raw('description', '')
@@ -233,9 +234,9 @@ def environment_from_nav2(nav2: Nav2Map, where: str = '') -> Environment:
     where = where or str(nav2.source)
     border = nav2.extra.get('border_is_obstacle', True)
     if not isinstance(border, bool):
-        raise fail(f'{where}.border_is_obstacle', f'must be true or false (got {border!r})', RoleEngineError)
+        raise fail(f'{where}.border_is_obstacle', f'must be true or false (got {echo(border)})', RoleEngineError)
     name = nav2.extra.get('name', nav2.source.stem)
     if not isinstance(name, str) or not name:
-        raise fail(f'{where}.name', f'must be a non-empty string (got {name!r})', RoleEngineError)
+        raise fail(f'{where}.name', f'must be a non-empty string (got {echo(name)})', RoleEngineError)
     occupied, origin = nav2.axis_aligned(unknown_is_occupied=True)
     return Environment(occupied, nav2.resolution, origin, border_is_obstacle=border, name=name)

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from collab_tools.core.errors import ConfigurationError
+from collab_tools.core.settings import echo
 
 
 class RoleEngineError(ConfigurationError):
@@ -22,7 +23,7 @@ class RoleEngineError(ConfigurationError):
 def check_real(value: Any, path: str, *, positive: bool = False, non_negative: bool = False) -> float:
     """``value`` as a finite float, else RoleEngineError naming ``path`` (and the bound it breaks)."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise RoleEngineError(f'{path}: must be a number (got {type(value).__name__} {value!r})')
+        raise RoleEngineError(f'{path}: must be a number (got {type(value).__name__} {echo(value)})')
     number = float(value)
     if not math.isfinite(number):
         raise RoleEngineError(f'{path}: must be finite (got {number})')
@@ -36,7 +37,7 @@ def check_real(value: Any, path: str, *, positive: bool = False, non_negative: b
 def check_count(value: Any, path: str, *, minimum: int) -> int:
     """``value`` as an int >= ``minimum``, else RoleEngineError naming ``path``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise RoleEngineError(f'{path}: must be an integer (got {type(value).__name__} {value!r})')
+        raise RoleEngineError(f'{path}: must be an integer (got {type(value).__name__} {echo(value)})')
     if value < minimum:
         raise RoleEngineError(f'{path}: must be >= {minimum} (got {value})')
     return int(value)

@@ -27,6 +27,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
+from collab_tools.core.settings import echo
+
 from .controller import TrackingGains, TrajectoryFollower
 from .environment import RobotType
 from .errors import RoleEngineError, check_count, check_real
@@ -46,7 +48,7 @@ PROBLEM_FIELDS = ('stuck_distance', 'stuck_time', 'off_role_distance', 'off_role
 
 def _detour_scales(value: Any, path: str) -> tuple[float, ...]:
     if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
-        raise RoleEngineError(f'{path}: must be a list of numbers >= 0 (got {value!r})')
+        raise RoleEngineError(f'{path}: must be a list of numbers >= 0 (got {echo(value)})')
     scales = [check_real(v, f'{path}[{i}]', non_negative=True) for i, v in enumerate(value)]
     return tuple(s for s in scales if s > 0.0)
 
@@ -121,7 +123,7 @@ class PlayerTuning:
                 avoidance[field] = _detour_scales(value, name) if field == 'detour_scales' else value
             elif section == 'gp' and field in PLAYER_GP_FIELDS:
                 if field == 'formulation' and value not in FORMULATIONS:
-                    raise RoleEngineError(f"{name}: must be one of {', '.join(FORMULATIONS)} (got {value!r})")
+                    raise RoleEngineError(f"{name}: must be one of {', '.join(FORMULATIONS)} (got {echo(value)})")
                 gp[field] = value
             elif not section and name in self.values() and '.' not in name:
                 top[name] = value

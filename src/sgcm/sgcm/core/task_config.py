@@ -21,6 +21,7 @@ import yaml
 from collab_tools.core.errors import ConfigurationError
 from collab_tools.core.fields import Fields, check_color, check_int, join_path, read_yaml_file, require_list, \
     require_mapping
+from collab_tools.core.settings import echo
 
 from .workspace_layout import Workspace, parse_workspace
 
@@ -163,7 +164,7 @@ def load_task(path: str | Path, overrides: dict | None = None) -> TaskConfig:
 
 def _cell(value: Any, path: str, rows: int, cols: int) -> int:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise TaskConfigError(f'{path}: must be a cell [row, col] (got {value!r})')
+        raise TaskConfigError(f'{path}: must be a cell [row, col] (got {echo(value)})')
     row = check_int(value[0], join_path(path, 0), ge=0, error=TaskConfigError)
     col = check_int(value[1], join_path(path, 1), ge=0, error=TaskConfigError)
     if row >= rows or col >= cols:
@@ -201,7 +202,7 @@ def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
     for name, spec in colour_items.items():
         path = join_path('colours', str(name))
         if not isinstance(name, str) or not name.isidentifier():
-            raise TaskConfigError(f'{path}: colour names must be identifiers (got {name!r})')
+            raise TaskConfigError(f'{path}: colour names must be identifiers (got {echo(name)})')
         f = Fields(spec, path, allowed=('goal', 'rgb'), error=TaskConfigError)
         names.append(name)
         goals.append(_cell(f.raw('goal'), f.path_of('goal'), rows, cols))
@@ -217,7 +218,7 @@ def parse_task(data: Any, source: Path | None = None) -> TaskConfig:
                           factor=cost.number('clutter_factor', 2.0, ge=1.0))
     charge_failed = cost.raw('charge_failed_actions', True)
     if not isinstance(charge_failed, bool):
-        raise TaskConfigError(f'cost.charge_failed_actions: must be true or false (got {charge_failed!r})')
+        raise TaskConfigError(f'cost.charge_failed_actions: must be true or false (got {echo(charge_failed)})')
 
     reward = Fields(top.raw('reward', {}), 'reward', allowed=('scale', 'distance', 'goal_bonus'),
                     error=TaskConfigError)
