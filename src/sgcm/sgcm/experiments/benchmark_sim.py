@@ -33,6 +33,7 @@ from typing import Callable
 import numpy as np
 import yaml
 from collab_tools.core.bag_analysis import read_messages
+from collab_tools.core.fields import read_yaml_file
 
 from ..core.rearrangement import RearrangementModel
 from ..core.scenario_builder import build_scenario
@@ -65,7 +66,7 @@ BREAKDOWN = {'on_demand_tick_by_tick': {**PATHS['on_demand'],
 
 def experiment_file(config_dir: Path, out: Path) -> Path:
     """config/experiments/sgcm_case.yaml, also recording the bridge's status (frames rendered)."""
-    data = yaml.safe_load((config_dir / 'experiments' / 'sgcm_case.yaml').read_text())
+    data = read_yaml_file(config_dir / 'experiments' / 'sgcm_case.yaml', 'experiment file')
     topics = data['record']['topics']
     if STATUS not in topics:
         topics.append(STATUS)
