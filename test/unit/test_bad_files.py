@@ -200,3 +200,11 @@ def test_a_huge_field_value_is_echoed_short(tmp_path):
     with pytest.raises(ConfigurationError) as caught:
         load_scenario(scenario)
     assert str(caught.value).startswith('seed: must be an integer') and len(str(caught.value)) < 400
+
+
+def test_a_planning_map_over_the_grid_bound_is_refused(tmp_path):
+    (tmp_path / 'big.png').write_bytes(png(1001, 1000))
+    with pytest.raises(ConfigurationError, match=r'image: the image has 1001000 pixels; a planning map has at most'):
+        load_map_file(write(tmp_path, 'r.yaml', {'image': 'big.png', 'resolution': 0.05, 'origin': [0, 0]}))
+    with pytest.raises(ConfigurationError, match=r'image: the image has 1001000 pixels'):
+        load_map_file(write(tmp_path, 'n.yaml', dict(NAV2, image='big.png')))

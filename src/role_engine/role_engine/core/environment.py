@@ -216,6 +216,7 @@ def load_map_file(path: str | Path) -> Environment:
                                                         extra_fields=MAP_EXTRA_FIELDS), where)
     fields = Fields(data, where, allowed=MAP_FILE_FIELDS, error=RoleEngineError)
     grey = read_grey_image(path.parent / fields.string('image'), fields.path_of('image'), RoleEngineError)
+    _check_map_cells(grey.size, fields.path_of('image'))
     resolution = fields.number('resolution', gt=0.0)
     origin = fields.vector('origin', 2)
     threshold = fields.integer('occupied_below', 128, ge=1, le=256)
@@ -238,5 +239,12 @@ def environment_from_nav2(nav2: Nav2Map, where: str = '') -> Environment:
     name = nav2.extra.get('name', nav2.source.stem)
     if not isinstance(name, str) or not name:
         raise fail(f'{where}.name', f'must be a non-empty string (got {echo(name)})', RoleEngineError)
+    _check_map_cells(nav2.cells.size, f'{where}.image')
     occupied, origin = nav2.axis_aligned(unknown_is_occupied=True)
     return Environment(occupied, nav2.resolution, origin, border_is_obstacle=border, name=name)
+
+
+def _check_map_cells(cells: int, field_path: str) -> None:
+    if cells > MAX_GRID_CELLS:
+        raise fail(field_path, f'the image has {cells} pixels; a planning map has at most {MAX_GRID_CELLS} cells '
+                   '(what the engine builds in about a second)', RoleEngineError)
