@@ -17,7 +17,10 @@ from collab_tools.core.bag_types import build_typestore
 from collab_tools.core.bag_writer import BagWriter, QosSpec
 from collab_tools.core.recording_loss import STATUS_FILE, LossLedger, write_status
 
-mcap_reader = pytest.importorskip('mcap.reader')  # Foxglove's reference reader (scripts/requirements)
+try:  # Foxglove's reference reader (scripts/requirements); without it, rosbags' indexed path alone
+    from mcap import reader as mcap_reader
+except ImportError:  # pragma: no cover - scripts/setup installs it
+    mcap_reader = None
 
 TYPES = {'/chatter': 'std_msgs/msg/String', '/robot_1/cmd_vel': 'geometry_msgs/msg/Twist'}
 T0 = 1_700_000_000_000_000_000
@@ -82,6 +85,16 @@ def read_all(bag: Path) -> list[tuple[str, int, bytes]]:
 
 def read_indexed(bag: Path) -> tuple[int, list[tuple[str, int, bytes]]]:
     """mcap's SeekingReader: statistics from the summary and the messages through the chunk indexes."""
+    if mcap_reader is None:
+        from rosbags.rosbag2.storage_mcap import McapReader
+        storage = McapReader(next(bag.glob('*.mcap')))
+        storage.open()
+        try:
+            assert storage.chunks or not storage.statistics.message_count, 'no chunk index'
+            messages = [(c.topic, t, bytes(d)) for c, t, d in storage.messages(storage.connections)]
+            return storage.statistics.message_count, messages
+        finally:
+            storage.close()
     with next(bag.glob('*.mcap')).open('rb') as f:
         reader = mcap_reader.make_reader(f)
         summary = reader.get_summary()
