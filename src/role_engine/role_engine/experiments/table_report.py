@@ -116,7 +116,7 @@ def plot_per_environment(results: dict, methods, labels, measure: str, ylabel: s
         colours[method] = bars.patches[0].get_facecolor() if bars.patches else None
     for method, value in (paper or {}).items():
         ax.axhline(100.0 * value if as_percent else value, color=colours.get(method), ls='--', lw=1.2,
-                   label=f'{labels[method]}: paper, overall ({value:g})')
+                   label=f"{labels[method]}: paper, overall ({f'{100.0 * value:.2f} %' if as_percent else f'{value:g}'})")
     ax.set_xticks(np.arange(len(envs)), envs)
     ax.set_ylabel(ylabel)
     if log_scale:
