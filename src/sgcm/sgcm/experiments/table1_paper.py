@@ -229,7 +229,7 @@ The paper shows its ten initial configurations only as a picture (Fig. 2: "The i
 10 cases in the experiment"); its text says only that the red, green and blue objects go to the bottom-left,
 bottom-middle and bottom-right cells and that "the number of objects in the same type may differ, but the
 goal positions do not change". No object layout of any case is in the text, so the paper's cases cannot be
-reproduced from it, and none are invented here. The project's ten cases (config/sgcm/cases.yaml, 3 x 3 grid,
+reproduced from it, and none are invented here. The project's default cases (config/sgcm/cases.yaml, 3 x 3 grid,
 3 to 7 objects) were built so that Table I's pattern holds case by case: greedy stuck in 1, 2, 3 and 5; SGCM
 in fewer rounds in 6, 9 and 10; in as many in 4, 7 and 8. table1.md therefore compares each case with the
 paper's row of the same number *in kind* (greedy status, rounds and utility of SGCM against greedy), not
