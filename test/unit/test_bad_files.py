@@ -2,6 +2,8 @@
 its package's ConfigurationError (exit code 2 in a node or an experiment), never another exception;
 absurd sizes that pass a type check are refused where the simulator or a planner could not build
 them. The reader itself is tested in tools/test_input_files.py; these tests prove each loader uses it."""
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -208,3 +210,22 @@ def test_a_planning_map_over_the_grid_bound_is_refused(tmp_path):
         load_map_file(write(tmp_path, 'r.yaml', {'image': 'big.png', 'resolution': 0.05, 'origin': [0, 0]}))
     with pytest.raises(ConfigurationError, match=r'image: the image has 1001000 pixels'):
         load_map_file(write(tmp_path, 'n.yaml', dict(NAV2, image='big.png')))
+
+
+# --- experiments ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('experiment, option, kind, words', [
+    ('sgcm-table1', '--task', 'non-UTF-8', "task file '"),
+    ('roles-table4', '--maps', 'alias bomb', "map file '"),
+    ('coalition-boxpush', '--agents', 'alias bomb', "agents parameter file '"),
+    ('sgcm-disturbance', '--cases', 'FIFO', "cases file '"),
+    ('coalition-table3', '--config', 'nested 100,000 deep', "file '"),
+])
+def test_an_experiment_given_a_bad_file_exits_2_naming_it(tmp_path, experiment, option, kind, words):
+    path, problem = bad_file(kind, tmp_path)
+    done = subprocess.run([sys.executable, str(CONFIG.parent / 'scripts' / 'experiment'), experiment, option, path,
+                           '--run-dir', str(tmp_path / 'run')], capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ, COLLAB_RUNS_DIR=str(tmp_path)))
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert words in done.stderr and problem in done.stderr and 'Traceback' not in done.stderr, done.stderr[-2000:]
+    assert not (tmp_path / 'run').exists()              # nothing ran, nothing left
