@@ -115,7 +115,7 @@ def in_time_order(messages):
     return sorted(messages, key=lambda m: (m[1], m[0]))
 
 
-def assert_opens_with(bag: Path, expected: list) -> None:
+def assert_opens_with(bag: Path, expected: list, topics=tuple(TYPES)) -> None:
     assert check_bag(bag) == []
     got = read_all(bag)
     assert in_time_order(got) == in_time_order(expected)
@@ -125,7 +125,7 @@ def assert_opens_with(bag: Path, expected: list) -> None:
     info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert info['message_count'] == len(expected)
     per_topic = {e['topic_metadata']['name']: e['message_count'] for e in info['topics_with_message_count']}
-    assert per_topic == {t: sum(1 for m in expected if m[0] == t) for t in TYPES}
+    assert per_topic == {t: sum(1 for m in expected if m[0] == t) for t in topics}
 
 
 @pytest.mark.parametrize('where', ['chunk_end', 'mid_chunk', 'chunk_header', 'index_tail', 'record_head'])
@@ -162,14 +162,33 @@ def test_cut_bag_is_repaired_and_opens_in_both_readers(tmp_path, reference, wher
     assert next(bag.glob('*.mcap')).read_bytes() == before
 
 
-def test_compressed_cut_chunk_is_dropped_whole(tmp_path, typestore):
-    source = tmp_path / 'zstd'
-    written = write_bag(source, typestore, preset='zstd_fast')
-    start, end = chunk_offsets(next(source.glob('*.mcap')))[3]
-    bag = cut_copy(source, tmp_path / 'cut', (start + end) // 2)
+def test_compressed_cut_chunk_keeps_its_complete_blocks(tmp_path, typestore):
+    """zstd decodes block by block (128 KiB): a cut compressed chunk gives up the messages of its
+    complete blocks (kept in a new, uncompressed chunk); a chunk of one block, nothing."""
+    import random
+    rng = random.Random(7)
+    source, written = tmp_path / 'zstd', []
+    writer = BagWriter(source, typestore, storage_preset='zstd_fast')
+    writer.add_topic('/chatter', TYPES['/chatter'])
+    for i in range(3000):  # 3 chunks of ~300 KiB of incompressible text
+        text = ''.join(rng.choice('abcdefghijklmnopqrstuvwxyz0123456789') for _ in range(300))
+        raw = bytes(typestore.serialize_cdr(typestore.types[TYPES['/chatter']](data=text), TYPES['/chatter']))
+        writer.write('/chatter', T0 + i, raw)
+        written.append(('/chatter', T0 + i, raw))
+        if i % 1000 == 999:
+            writer.flush()
+    writer.close()
+    start, end = chunk_offsets(next(source.glob('*.mcap')))[2]
+    bag = cut_copy(source, tmp_path / 'cut', start + (end - start) * 9 // 10)
     report = repair_bag(bag)
+    assert report.chunk_count == 3 and 300 < report.salvaged < 1000
+    assert_opens_with(bag, written[:2000 + report.salvaged], topics=('/chatter',))
+    small = tmp_path / 'small'
+    written = write_bag(small, typestore, preset='zstd_fast')
+    start, end = chunk_offsets(next(small.glob('*.mcap')))[3]
+    report = repair_bag(cut_copy(small, tmp_path / 'small_cut', (start + end) // 2))
     assert report.salvaged == 0 and report.chunk_count == 3
-    assert_opens_with(bag, written[:3 * 50])
+    assert_opens_with(tmp_path / 'small_cut', written[:3 * 50])
 
 
 def test_killed_writer_loses_at_most_the_pending_chunk(tmp_path, typestore):

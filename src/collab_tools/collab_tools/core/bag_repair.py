@@ -11,8 +11,9 @@ the MCAP file is also made whole again, so every reader accepts it:
 
 1. The data section is read record by record. The first record that is cut off or does not
    decode (a chunk whose bytes are short, whose size or CRC is wrong, whose records overrun
-   it) ends what is kept. Of an uncompressed chunk that was cut, the complete messages are kept
-   (a new chunk); of a compressed one, nothing.
+   it) ends what is kept. Of a chunk that was cut, the complete messages of what decodes are kept
+   in a new, uncompressed chunk (all that is there when uncompressed; zstd and lz4 decode whole
+   blocks of up to 128 KiB, so a cut compressed chunk of one block gives up nothing).
 2. The file is truncated after the last good record; the last chunk gets the message indexes it
    lacks; a ``rosbag2`` metadata record, data end, summary (schemas, channels, chunk indexes,
    metadata index, statistics, summary offsets) and footer are written as a clean close does.
@@ -208,16 +209,16 @@ def _take(scan: _Scan, opcode: int, offset: int, length: int, data: bytes) -> No
 
 
 def _salvage(scan: _Scan, cut: tuple[int, bytes]) -> bytes:
-    """A new chunk record with the complete messages of a cut, uncompressed chunk (b'' if none)."""
+    """A new, uncompressed chunk record with the complete messages of a cut chunk (b'' if none)."""
     body = mr.Cursor(cut[1])
     try:
         body.take(28)
-        if body.string() != '':
-            return b''  # a compressed stream cannot be read before its end
+        compression = body.string()
         body.take(8)
     except mr.RecordError:
         return b''
-    records, messages, seen = scan.chunk_contents(cut[1][body.offset:], salvage=True)
+    readable = mr.partial_records(cut[1][body.offset:], compression)
+    records, messages, seen = scan.chunk_contents(readable, salvage=True)
     if not seen:
         return b''
     scan.salvaged = len(seen)

@@ -9,10 +9,17 @@ CRC. Every parse error is a :class:`RecordError` (the record is not usable).
 from __future__ import annotations
 
 import struct
+import sys
 from dataclasses import dataclass, field
 
+import lz4.frame
 from rosbags.rosbag2.errors import ReaderError
 from rosbags.rosbag2.storage_mcap import decompress
+
+if sys.version_info >= (3, 14):
+    from compression import zstd
+else:  # pragma: no cover - the rosbags dependency brings the backport
+    from backports import zstd
 
 MAGIC = b'\x89MCAP0\r\n'
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE = 0x01, 0x02, 0x03, 0x04, 0x05
@@ -131,6 +138,20 @@ def chunk_records(body: Cursor) -> tuple[int, int, bytes, str, int]:
     except (ReaderError, RuntimeError, ValueError, OSError) as error:  # lz4/zstd raise their own kinds
         raise RecordError(f'chunk does not decompress ({error})') from None
     return start, end, records, compression, len(compressed)
+
+
+def partial_records(data: bytes, compression: str) -> bytes:
+    """What the first bytes of a chunk's (maybe compressed) records decode to; b'' if nothing."""
+    if compression == '':
+        return data
+    try:
+        if compression == 'zstd':
+            return zstd.ZstdDecompressor().decompress(data)
+        if compression == 'lz4':
+            return lz4.frame.LZ4FrameDecompressor().decompress(data)
+    except (zstd.ZstdError, RuntimeError, ValueError):
+        pass
+    return b''
 
 
 def inner_records(records: bytes):
