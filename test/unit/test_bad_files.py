@@ -229,3 +229,16 @@ def test_an_experiment_given_a_bad_file_exits_2_naming_it(tmp_path, experiment, 
     assert done.returncode == 2, done.stderr[-2000:]
     assert words in done.stderr and problem in done.stderr and 'Traceback' not in done.stderr, done.stderr[-2000:]
     assert not (tmp_path / 'run').exists()              # nothing ran, nothing left
+
+
+@pytest.mark.parametrize('kind', ('FIFO', 'non-UTF-8', 'alias bomb', '/dev/zero'))
+def test_an_experiment_files_parameter_file_is_read_before_any_node_gets_it(tmp_path, kind):
+    from collab_tools.orchestration.experiment_checks import check_experiment
+    parameters, words = bad_file(kind, tmp_path)
+    experiment = write(tmp_path, 'experiment.yaml', {
+        'name': 'bad', 'until': {'seconds': 1},
+        'nodes': [{'package': 'collab_tools', 'executable': 'scripted_driver', 'name': 'driver',
+                   'parameters': [parameters]}]})
+    with pytest.raises(ConfigurationError) as caught:
+        check_experiment(experiment, CONFIG)
+    assert 'nodes[0] (driver).parameters[0]: parameter file' in str(caught.value) and words in str(caught.value)

@@ -14,6 +14,7 @@ import importlib
 from pathlib import Path
 from typing import Any
 
+from ..core.fields import read_yaml_file
 from ..ros_interfaces import import_interface
 from .experiment import ExperimentError, _MessageFields, _network, _substitute, load_experiment, parse_node
 from .node_process import NodeSpec, find_executable
@@ -137,8 +138,8 @@ def _check_node(spec: NodeSpec, path: str, experiment_dir: Path) -> None:
     for index, entry in enumerate(spec.parameters):
         if isinstance(entry, str) and '{run_dir}' not in entry:
             file = Path(entry) if Path(entry).is_absolute() else experiment_dir / entry
-            if not file.is_file():
-                raise ExperimentError(f"{path}.parameters[{index}]: parameter file '{file}' does not exist")
+            # read as every input file is (rcl would block on a FIFO, or end the node on a bad file)
+            read_yaml_file(file, f'{path}.parameters[{index}]: parameter file', ExperimentError)
 
 
 def check_experiment(path: str | Path, config_dir: str | Path, host: str | None = None) -> dict:
