@@ -141,7 +141,9 @@ def _text(image, text: str, origin, colour=(255, 255, 255), scale: float = 0.45,
     (width, height), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
     x = int(min(max(origin[0], 2), image.shape[1] - width - 2))
     y = int(min(max(origin[1], height + 2), image.shape[0] - 4))
-    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, outline, 2, cv2.LINE_AA)
+    # The outline is the same text shifted by a pixel: a thicker stroke would advance each glyph further.
+    for dx, dy in ((-1, -1), (-1, 1), (1, -1), (1, 1), (0, -1), (0, 1), (-1, 0), (1, 0)):
+        cv2.putText(image, text, (x + dx, y + dy), cv2.FONT_HERSHEY_SIMPLEX, scale, outline, 1, cv2.LINE_AA)
     cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
 
 
