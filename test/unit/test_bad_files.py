@@ -242,3 +242,8 @@ def test_an_experiment_files_parameter_file_is_read_before_any_node_gets_it(tmp_
     with pytest.raises(ConfigurationError) as caught:
         check_experiment(experiment, CONFIG)
     assert 'nodes[0] (driver).parameters[0]: parameter file' in str(caught.value) and words in str(caught.value)
+
+
+def test_a_physics_step_the_bridge_could_never_tick_is_refused(tmp_path):
+    with pytest.raises(ConfigurationError, match=r'^world\.physics_dt: must be >= 0\.0001 \(got 1e-300\)'):
+        load_scenario(write(tmp_path, 's.yaml', dict(SCENARIO, world={'physics_dt': 1e-300})))

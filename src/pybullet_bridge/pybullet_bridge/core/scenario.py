@@ -12,7 +12,7 @@ Schema (defaults shown; fields without a default are required)::
                                       # made by section parsers (none of the built-in ones are random)
     world:                            # optional section
       frame_id: world                 # frame of every published pose
-      physics_dt: 0.004166667         # s, physics step, (0, 0.05]
+      physics_dt: 0.004166667         # s, physics step, [1e-4, 0.05]
       gravity: -9.81                  # m/s^2 along z
       bounds: [-3.0, -3.0, 3.0, 3.0]  # xmin ymin xmax ymax (m), xmin < xmax, ymin < ymax
       walls: {height: 0.3, thickness: 0.05}

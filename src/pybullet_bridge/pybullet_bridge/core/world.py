@@ -9,6 +9,9 @@ from collab_tools.core.fields import Fields, fail
 from .errors import ScenarioError
 
 DEFAULT_PHYSICS_DT = 1.0 / 240.0  # pybullet's own default step
+#: Shortest physics step: 10 kHz. A control tick is control_period / physics_dt steps (1e-300 would be
+#: 1e298 steps: the bridge would never finish its first tick); 1e-4 s keeps a 10 ms tick at 100 steps.
+MIN_PHYSICS_DT = 1e-4
 DEFAULT_BOUNDS = (-3.0, -3.0, 3.0, 3.0)
 #: Name of the wall entity the scene adds when world.walls is set.
 WALLS_ENTITY_NAME = 'walls'
@@ -60,7 +63,7 @@ def parse_world(value: Any) -> WorldConfig:
                            thickness=wall_fields.number('thickness', 0.05, gt=0.0))
     return WorldConfig(
         frame_id=fields.string('frame_id', 'world'),
-        physics_dt=fields.number('physics_dt', DEFAULT_PHYSICS_DT, gt=0.0, le=0.05),
+        physics_dt=fields.number('physics_dt', DEFAULT_PHYSICS_DT, ge=MIN_PHYSICS_DT, le=0.05),
         gravity=fields.number('gravity', -9.81),
         bounds=bounds,  # type: ignore[arg-type]
         walls=walls,
