@@ -28,7 +28,8 @@ class FoxgloveClient:
     def __enter__(self) -> 'FoxgloveClient':
         deadline = time.monotonic() + self.timeout
         while True:  # the server may still be starting
-            self._connection = connect(self.url, subprotocols=SUBPROTOCOLS, open_timeout=2.0, max_size=None)
+            self._connection = connect(self.url, subprotocols=SUBPROTOCOLS, open_timeout=2.0, max_size=None,
+                                       legacy=False)  # connects on __enter__
             try:
                 self.ws = self._connection.__enter__()
                 break

@@ -1,18 +1,22 @@
-"""The live view during a real run: the bridge and three schema agents (the coalition test's team),
-the visualiser (coalition markers) and the live_view node; a client speaking Foxglove's WebSocket
-protocol (subprotocol foxglove.sdk.v1, as the Foxglove app) sees the run's topics advertised with their ros2msg schemas,
+"""The live view during a real run, started by the session as ``--live`` starts it
+(orchestration.live): the bridge and three schema agents (the coalition test's team) with the
+visualiser and the live_view node. A client speaking Foxglove's WebSocket protocol (subprotocol
+foxglove.sdk.v1, as the Foxglove app) sees the run's topics advertised with their ros2msg schemas,
 subscribes, and decodes a visualization_msgs/MarkerArray and the agents' AgentStatus from the CDR
-payloads it receives."""
+payloads it receives; the node stops forwarding once the client has gone."""
 
 import socket
 import time
 
+import pytest
 from coalition_interfaces.msg import AgentStatus
 from rclpy.serialization import deserialize_message
 from visualization_msgs.msg import MarkerArray
 
 from collab_tools.core.bag_types import build_typestore, message_definition
+from collab_tools.orchestration.live import LiveView
 from collab_tools.orchestration.node_process import NodeSpec
+from collab_tools.orchestration.session import Session
 from foxglove_client import SUBPROTOCOL, FoxgloveClient
 from test_coalition_agents import HELPER, LEADER, start_team
 
@@ -27,12 +31,20 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
-def test_a_foxglove_client_watches_a_coalition_form(session, config_dir):
-    port = free_port()
-    session.start(NodeSpec('collab_tools', 'live_view', name='live_view',
-                           parameters=[{'port': port, 'discovery_period': 0.5}]))
-    session.start(NodeSpec('collab_tools', 'visualiser', name='visualiser',
-                           parameters=[{'sources': ['coalitions'], 'discovery_period': 0.5}]))
+@pytest.fixture
+def port():
+    return free_port()
+
+
+@pytest.fixture
+def session(tmp_path, port):
+    """A session with the live view, as ``scripts/demo --live`` starts it (orchestration.live)."""
+    with Session('live_view', run_dir=tmp_path / 'run', log=None, live=LiveView('127.0.0.1', port)) as s:
+        yield s
+
+
+def test_a_foxglove_client_watches_a_coalition_form(session, port, config_dir):
+    assert set(session.nodes) == {'live_view', 'visualiser'}  # started first, by the session
     coalitions = config_dir / 'coalitions'
     files = {'capability_file': str(coalitions / 'capabilities' / 'coalition_three_robots.yaml'),
              'schemas_file': str(coalitions / 'schemas.yaml'), 'costs_file': str(coalitions / 'costs.yaml'),
@@ -79,3 +91,20 @@ def test_a_foxglove_client_watches_a_coalition_form(session, config_dir):
         assert time.monotonic() < deadline, log.read_text()[-2000:]
         time.sleep(0.2)
     assert session.nodes['live_view'].poll() is None and session.nodes['visualiser'].poll() is None
+
+
+@pytest.mark.parametrize('executable, parameters, message', [
+    ('live_view', {'port': 70000}, 'parameter port: must be in [0, 65535]'),
+    ('live_view', {'host': 'laptop'}, 'parameter host: must be an IP address'),
+    ('live_view', {'port': 'taken'}, 'parameter host/port: cannot serve on 127.0.0.1:'),
+    ('visualiser', {'sources': ['sgcm', 'maps']}, 'parameter sources: must be one of'),
+])
+def test_a_bad_parameter_stops_the_node_with_a_message(tmp_path, executable, parameters, message):
+    with socket.socket() as taken, Session('bad_live', run_dir=tmp_path / 'run', log=None, live=None) as session:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        if parameters.get('port') == 'taken':
+            parameters = {'port': taken.getsockname()[1]}
+        process = session.start(NodeSpec('collab_tools', executable, name=executable, parameters=[parameters]))
+        assert session.wait_for_exit(executable, timeout=60.0) == 2
+        assert message in process.log_path.read_text()
