@@ -11,9 +11,7 @@ Names: everything but /clock, /tf and /tf_static is relative to the node's names
 ``-r __ns:=/sim1`` moves the whole simulation. QoS (collab_tools.qos): camera images, labels,
 camera info and robot sensors are sensor data (best effort), the label legend, camera pose
 and ground truth latched, cmd_vel accepted from best-effort publishers.
-Malformed input (a non-finite command, a refused request) is dropped, counted in ``~/status``
-(``rejected_messages``) and logged once per kind through the node's input guard
-(collab_tools.input_guard).
+Malformed input is dropped, counted in ``~/status`` and logged once per kind (collab_tools.input_guard).
 
 /clock goes out every control tick, or at ``clock_rate`` (simulated Hz) when set: each message
 costs every node on simulated time a wake-up. As fast as possible, ``fast_batch_period`` runs
@@ -92,8 +90,7 @@ class PybulletBridge(Node):
         except RendererError as error:
             raise ConfigurationError(f'parameter camera_renderer: {error}') from None
         self.paused = settings['start_paused']
-        self.rejected_messages = 0
-        # Every dropped input (a command, a request) is counted here for ~/status and logged once per kind.
+        self.rejected_messages = 0     # every dropped input (a command, a request), for ~/status
         self.inputs = InputGuard.of(self)
         self.inputs.on_reject = self._count_rejected
         self.adapters = []
@@ -165,7 +162,8 @@ class PybulletBridge(Node):
     def _on_scene_loaded(self) -> None:
         for adapter in self.adapters:
             adapter.destroy()
-        self.adapters = create_adapters(self, self.scene.entities, self.reject)
+        self.adapters = create_adapters(self, self.scene.entities,
+                                        lambda source, reason: self.inputs.reject(source, MalformedInput(reason)))
         self.steps_per_tick = steps_per_tick(self.control_period, self.scene.physics_dt)
         self.pacer.batch_ticks = max(1, round(self.fast_batch_period / (self.steps_per_tick * self.scene.physics_dt)))
         self.ground_truth.restart()
@@ -184,11 +182,7 @@ class PybulletBridge(Node):
         self.tf.publish_static(static_transforms(scenario.world.frame_id, self.scene.entities,
                                                  scenario.camera.frame_id, position, quaternion), stamp)
 
-    def reject(self, source: str, reason: str) -> None:
-        """Log (once per kind) and count a malformed input that was dropped."""
-        self.inputs.reject(source, MalformedInput(reason))
-
-    def _count_rejected(self, source: str, error: BaseException) -> None:
+    def _count_rejected(self, source: str, error: BaseException) -> None:   # the input guard's on_reject
         self.rejected_messages += 1
 
     # --- simulation loop -----------------------------------------------------------------
