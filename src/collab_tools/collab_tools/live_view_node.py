@@ -23,6 +23,9 @@ from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .ros_interfaces import import_interface
 
+#: Wall seconds between the simulated times sent to the app.
+TIME_PERIOD = 0.2
+
 
 class _Listener:
     """The server's callbacks (its own thread): record the change, wake the executor."""
@@ -68,6 +71,9 @@ class LiveView(Node):
                                + connect_hint(values['host'], self.port))
         self.discovery_timer = None
         self._set_discovery_period(values['discovery_period'])
+        if self.sim_time:  # the app's clock follows the simulation (the Time capability)
+            self.create_timer(TIME_PERIOD, lambda: self.server.broadcast_time(self.get_clock().now().nanoseconds),
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._discover()
 
     def _topics_problem(self, topics: list[str]) -> str | None:
@@ -101,8 +107,6 @@ class LiveView(Node):
             self.channels.remove(entry.topic)
             entry.channel.close()
             self.get_logger().info(f'{entry.topic}: no publisher any more, channel closed')
-        if self.sim_time:
-            self.server.broadcast_time(self.get_clock().now().nanoseconds)
 
     def _advertise(self, topic: str, type_names: list[str]) -> None:
         try:
