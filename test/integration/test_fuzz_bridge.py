@@ -4,7 +4,7 @@ bridge stays up, counts every dropped command in ~/status, logs each kind once, 
 import math
 import time
 
-from bridge_interfaces.srv import GetCameraFrame, SetSensorActive, StepSimulation
+from bridge_interfaces.srv import GetCameraFrame, SetSensorActive
 from geometry_msgs.msg import Twist
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -55,7 +55,7 @@ def test_bridge_survives_fuzzed_commands_and_requests_and_still_drives(session, 
                                       predicate=lambda s: s.rejected_messages >= 6 + 100)
     log = process.log_path.read_text()
     assert_rejected_once_per_kind(log, '/robot_1/cmd_vel', ['non-finite velocity'])
-    assert f'/robot_1/cmd_vel: 100 malformed messages dropped so far' in log
+    assert '/robot_1/cmd_vel: 100 malformed messages dropped so far' in log
     assert 'Traceback' not in log
 
     # And it still does its task: a valid command drives the robot as before.
