@@ -56,3 +56,30 @@ def test_demo_mobile_experiment_records_moving_robots(config_dir, tmp_path, caps
     video = report['bags'][0]['videos'][0]
     assert video['frames'] == frames and video['camera_topic'] == '/top_camera/image_raw/compressed'
     assert read_video(run_dir / 'report' / video['path']) == (frames, video['width'], video['height'])
+
+
+def test_scripts_demo_opens_its_report_with_one_outcome_line_per_demo(tmp_path):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    workspace = Path(__file__).resolve().parents[2]
+    env = {**os.environ, 'COLLAB_RUNS_DIR': str(tmp_path)}
+    done = subprocess.run([sys.executable, str(workspace / 'scripts' / 'demo'), '--only', 'mobile'], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    run_dir = Path(done.stdout.strip().splitlines()[-1])
+    assert run_dir.parent == tmp_path
+    lines = [line for line in done.stdout.splitlines() if line.startswith('[demo] mobile: ')]
+    assert len(lines) == 2 and lines[0].startswith('[demo] mobile: completed — the driver finished its plan'), lines
+    outcomes = json.loads((run_dir / 'outcomes.json').read_text())['outcomes']
+    assert [o['subject'] for o in outcomes] == ['mobile'] and outcomes[0]['passed'] is True
+    markdown = (run_dir / 'report' / 'report.md').read_text().splitlines()
+    first = markdown.index('## Outcome') + 2
+    assert markdown[first] == f"- **mobile: completed** — {outcomes[0]['summary']}" and markdown[first + 1] == ''
+    report = json.loads((run_dir / 'report' / 'report.json').read_text())
+    assert [o['line'] for o in report['outcomes']] == [lines[0].removeprefix('[demo] ')]
+    # The plots of the bag, each with something to show (the mobile demo has robots, commands, messages).
+    assert sorted(Path(p).name for p in report['bags'][0]['plots']) == [
+        'message_rates.png', 'trajectories.png', 'velocities.png']
