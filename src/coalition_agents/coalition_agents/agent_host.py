@@ -256,7 +256,6 @@ def main(args=None) -> int:
         host = AgentHost(args)
         host.wait_for_channel_recorder()
         host.start_agents()
-        tune_collector()  # the start-up heap frozen, fewer young collections (host_runtime)
     except (ConfigurationError, ParameterException) as error:
         rclpy.logging.get_logger('schema_agent_host').fatal(f'cannot start: {error}')
         _tear_down(host)
@@ -272,6 +271,10 @@ def main(args=None) -> int:
                     else MultiThreadedExecutor(num_threads=len(host.agents) + 1))
         for node in (host, *host.agents):
             executor.add_node(node)
+        # The start-up heap frozen, fewer young collections (host_runtime). Here, not before the
+        # executor exists: collecting the start-up heap takes a while, and a SIGINT that lands in
+        # rclpy's Executor constructor leaves an executor whose __del__ prints a traceback.
+        tune_collector()
         waiting = host.finishing()
         with profiled(host.get_name()):  # COALITION_HOST_PROFILE=<dir> only (host_runtime)
             while rclpy.ok() and (not waiting or not all(agent.finished.done() for agent in waiting)):

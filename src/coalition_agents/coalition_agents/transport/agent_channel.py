@@ -68,12 +68,13 @@ from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
 from ..core.transport.batch_columns import decode_columns
 from ..core.transport.batching import Batch, InboxQueue, Outbox, local_messages
 from ..core.cooperative_work import CooperativeWork
-from ..core.transport.codec import ChannelCodec, ChannelMessage, information_message
+from ..core.transport.codec import ChannelCodec, ChannelMessage, MessageKind, information_message
 from ..core.errors import CoalitionError
 from ..core.transport.link_model import LinkModel
 from ..core.transport.commitments import Negotiation
 from ..core.transport.reliable_channel import Received, ReliableChannel, Undelivered
 from ..core.transport.retry import RetryPolicy
+from .batch_cdr import batch_to_cdr, set_stamp
 from .batch_wire import batch_from_ros, batch_to_ros, from_ros, to_ros
 from .channel_hub import BATCH_TOPIC, CHANNEL_QOS, CHANNEL_TOPIC, QUEUE_DEPTH, ChannelHub
 
@@ -192,18 +193,26 @@ class AgentChannel:
         :class:`~..core.transport.commitments.CommitmentLedger`)."""
         self.core.ledger.admission = rule
 
-    def _queue(self, messages: Iterable[ChannelMessage]) -> None:
+    def _queue(self, messages: list[ChannelMessage]) -> None:
         """Put messages into the outbox: negotiation messages leave at once (with whatever else
-        waits for that robot), the rest at the end of the processing step."""
+        waits for that robot), the rest at the end of the processing step; an ACK alone waits for
+        a batch to ride on (or goes alone after ack_delay_s: the hub's timer)."""
+        if not messages:
+            return
         now = self.now()
-        urgent = [message.receiver for message in messages if self.outbox.put(message, now)]
+        urgent, buffered = [], False
+        for message in messages:
+            if self.outbox.put(message, now):
+                urgent.append(message.receiver)
+            elif message.kind is not MessageKind.ACK:
+                buffered = True
         if urgent:
             self._transmit_all(self.outbox.flush(now, list(dict.fromkeys(urgent))))
-        if not self._flush_scheduled and self.outbox.has_messages():
+        if buffered and not self._flush_scheduled:
             self._flush_scheduled = True
             self.hub.request_flush(self)
-        elif self.outbox.next_ack_due() < float('inf'):
-            self.hub.wake()  # an ACK waits for a batch to ride on (or goes alone after ack_delay_s)
+        else:
+            self.hub.wake()
 
     def flush(self) -> None:
         """The end of a processing step (the hub's guard condition): one batch per recipient."""
@@ -228,7 +237,7 @@ class AgentChannel:
             self.node.get_logger().debug(f'link model dropped batch {batch.sequence} {self.robot}->{batch.recipient} '
                                          f'({len(batch.messages)} messages, {len(batch.acked_ids)} acks)')
             return
-        msg = batch_to_ros(batch)
+        msg = batch_to_cdr(batch) if self.hub.wire_bytes else batch_to_ros(batch)
         if delay <= 0.0:
             self._publish(msg, batch)
             return
@@ -244,9 +253,15 @@ class AgentChannel:
             _, _, msg, batch = heapq.heappop(self._delayed)
             self._publish(msg, batch)
 
-    def _publish(self, msg: AgentMessageBatch, batch: Batch) -> None:
-        msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.hub.publish(msg, batch)
+    def _publish(self, msg: AgentMessageBatch | bytearray, batch: Batch) -> None:
+        """Stamp the batch now (when it leaves the link model) and publish it."""
+        stamp_ns = self._clock.handle.get_now().nanoseconds
+        if isinstance(msg, bytearray):
+            set_stamp(msg, stamp_ns)
+            self.hub.publish(bytes(msg), batch)
+        else:
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+            self.hub.publish(msg, batch)
         self.batches_published += 1
 
     def teammates_listening(self, presence_topic: Callable[[str], str]) -> int:
@@ -261,22 +276,27 @@ class AgentChannel:
 
     # --- receiving (called by the hub) ---------------------------------------------------------------
     def accept_batch(self, msg: AgentMessageBatch) -> None:
-        """A batch addressed to this robot: decoded, acknowledged and queued for the agent (the
-        hub hands the negotiation messages over with :meth:`deliver_urgent` once it drained the
+        """A typed batch addressed to this robot (:meth:`accept_fields`)."""
+        self.accept_fields(batch_from_ros(msg))
+
+    def accept_fields(self, data: dict) -> None:
+        """A batch addressed to this robot, as its fields (:func:`~.batch_wire.batch_from_ros`,
+        :func:`~.batch_cdr.decode_cdr`): decoded, acknowledged and queued for the agent (the hub
+        hands the negotiation messages over with :meth:`deliver_urgent` once it drained the
         subscription). Due delayed batches leave first."""
         self._release_due()
+        sender, sequence = data['sender'], data['sequence']
         try:
-            data = batch_from_ros(msg)
             decoded = decode_columns(self.codec, data, self.robot)
         except (CoalitionError, ValueError, TypeError) as exc:
             self.rejected_batches += 1
-            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel batch {msg.sequence} from '
-                                           f'{msg.sender!r}: {exc}')
+            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel batch {sequence} from '
+                                           f'{sender!r}: {exc}')
             return
         for index, why in decoded.rejected:
             self.rejected += 1
-            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from {msg.sender!r} '
-                                           f'(batch {msg.sequence}, id {data["message_ids"][index]}): {why}')
+            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from {sender!r} '
+                                           f'(batch {sequence}, id {data["message_ids"][index]}): {why}')
         now = self.now()
         for message in decoded.messages:
             self._receive(message, now, deliver_urgent=False)

@@ -5,18 +5,17 @@
 * :func:`batch_to_ros` / :func:`batch_from_ros` -- a core batch and the columnar
   ``AgentMessageBatch`` (:mod:`..core.transport.batch_columns`: one array per field, so a batch
   converts in one step instead of one Python object per nested message);
-* :func:`peek_addresses` -- the ``sender`` and ``recipient`` of a serialized ``AgentMessageBatch``
-  read from its first bytes (CDR), so that an agent process drops the batches for robots it does
+* :func:`peek_addresses` (:mod:`.batch_cdr`) -- the ``sender`` and ``recipient`` of a serialized
+  ``AgentMessageBatch`` read from its first bytes (CDR), so that an agent process drops the batches for robots it does
   not host (and those it delivered in-process) without deserialising them (every process
   subscribes to the one team topic).
 """
 from __future__ import annotations
 
-import struct
-
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, ChainLink, Information, NamedValue
 
 from ..core.transport.batch_columns import COLUMNS, encode_batch
+from .batch_cdr import peek_addresses
 from ..core.transport.batching import Batch
 from ..core.transport.codec import KIND_FIELDS, ChannelMessage, MessageKind
 
@@ -96,32 +95,6 @@ def batch_from_ros(msg: AgentMessageBatch) -> dict:
     data = {name: getattr(msg, name) for name in COLUMNS}
     data.update(sender=msg.sender, recipient=msg.recipient, sequence=int(msg.sequence), acked_ids=msg.acked_ids)
     return data
-
-
-_UINT32 = struct.Struct('<I')
-
-
-def peek_addresses(data: bytes) -> tuple[str, str] | None:
-    """(sender, recipient) of a serialized AgentMessageBatch (little-endian CDR, as Fast DDS and
-    Cyclone DDS write it), or None if the bytes do not look like one: header.stamp (8 bytes), the
-    header's frame_id, sender, then recipient (each a uint32 length with the NUL, the bytes,
-    aligned to 4 relative to the payload after the 4-byte encapsulation)."""
-    try:
-        if len(data) < 16 or data[1] != 1:  # encapsulation: CDR_LE (0x0001)
-            return None
-        offset = 12  # after the encapsulation (4 bytes) and the stamp (sec + nanosec)
-        names = []
-        for field in range(3):  # frame_id, sender, recipient
-            offset += (-(offset - 4)) % 4
-            length = _UINT32.unpack_from(data, offset)[0]
-            if field and length:
-                names.append(bytes(data[offset + 4:offset + 3 + length]).decode('utf-8'))
-            elif field:
-                return None
-            offset += 4 + length
-        return names[0], names[1]
-    except (struct.error, UnicodeDecodeError, IndexError):
-        return None
 
 
 def peek_recipient(data: bytes) -> str | None:

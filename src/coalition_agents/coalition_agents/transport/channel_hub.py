@@ -30,6 +30,10 @@ owns, on its node:
 The reception loop drains the subscription for at most ``drain_slice_s`` per callback (the
 executor hands a subscription one message per wake-up; a search burst queues hundreds), then
 hands each touched channel's negotiation messages to its agent.
+
+Batches travel as serialized bytes both ways (:mod:`.batch_cdr`: written and read without the
+message object; :attr:`ChannelHub.wire_bytes`), unless the middleware serializes the type
+differently (checked once per process, :class:`~.batch_cdr.WireCheck`): then as typed messages.
 """
 from __future__ import annotations
 
@@ -40,12 +44,13 @@ from typing import TYPE_CHECKING
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 
 from collab_tools import qos as standard_qos
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
 
-from .batch_wire import peek_addresses
+from .batch_cdr import WireCheck, decode_cdr
+from .batch_wire import batch_from_ros, peek_addresses
 
 if TYPE_CHECKING:
     from .agent_channel import AgentChannel
@@ -58,6 +63,23 @@ CHANNEL_QOS = QoSProfile(history=standard_qos.RELIABLE.history, depth=QUEUE_DEPT
 #: the single-message channel and the batch topic under the team namespace (``names.team(...)``)
 CHANNEL_TOPIC = 'coalition/channel'
 BATCH_TOPIC = 'coalition/batches'
+
+
+def _serialize(columns: dict, stamp_ns: int) -> bytes:
+    msg = AgentMessageBatch(**columns)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    return serialize_message(msg)
+
+
+def _fields(data: bytes) -> dict:
+    msg = deserialize_message(data, AgentMessageBatch)
+    fields = {key: value if isinstance(value, (str, int)) else list(value)
+              for key, value in batch_from_ros(msg).items()}
+    return {**fields, 'stamp_ns': msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec}
+
+
+#: does this process's middleware agree with batch_cdr (checked at the first hub)
+WIRE_CHECK = WireCheck(_serialize, _fields)
 
 
 class ChannelHub:
@@ -73,6 +95,10 @@ class ChannelHub:
         self.batches_received = 0      # batches for a hosted robot
         self.batches_skipped = 0       # batches for robots hosted elsewhere (not deserialised)
         self.batch_topic = batch_topic
+        #: batches are published and read as serialized bytes (:mod:`.batch_cdr`), not typed messages
+        self.wire_bytes, why_not = WIRE_CHECK.result()
+        if not self.wire_bytes:
+            node.get_logger().info(f'channel batches go through typed messages: {why_not}')
         self.publisher = node.create_publisher(AgentMessageBatch, batch_topic, CHANNEL_QOS,
                                                event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         events = SubscriptionEventCallbacks(use_default_callbacks=False)
@@ -96,14 +122,14 @@ class ChannelHub:
             del self.channels[channel.robot]
         self._flushing.pop(channel.robot, None)
 
-    def publish(self, msg: AgentMessageBatch, batch=None) -> None:
-        """Publish a batch; one for a robot of this process is also handed to its channel in-process
-        (``batch``, the core batch: at the next guard-condition callback, no deserialisation, no
-        codec) and skipped when the subscription takes it back -- it is published all the same, for
-        the recorder and any other listener."""
+    def publish(self, msg: AgentMessageBatch | bytes, batch) -> None:
+        """Publish the batch ``batch`` as ``msg`` (its serialized bytes or typed message); one for a
+        robot of this process is also handed to its channel in-process (the core batch: at the next
+        guard-condition callback, no deserialisation, no codec) and skipped when the subscription
+        takes it back -- it is published all the same, for the recorder and any other listener."""
         self.publisher.publish(msg)
-        channel = self.channels.get(msg.recipient)
-        if channel is not None and batch is not None and msg.sender in self.channels:
+        channel = self.channels.get(batch.recipient)
+        if channel is not None and batch.sender in self.channels:
             if not self._local and not self._flushing:
                 self.flush_trigger.trigger()
             self._local.append((channel, batch))
@@ -163,18 +189,25 @@ class ChannelHub:
         if addresses is not None and (addresses[1] not in self.channels or addresses[0] in self.channels):
             self.batches_skipped += 1  # another process's robot, or handed over in-process already
             return
-        try:
-            msg = deserialize_message(data, AgentMessageBatch)
-        except Exception as exc:  # noqa: BLE001 - a malformed sample must not stop the executor
-            self.node.get_logger().warning(f'dropped an undecodable channel batch: {type(exc).__name__}: {exc}')
-            return
-        channel = self.channels.get(msg.recipient)
-        if channel is None or msg.sender in self.channels:
+        fields = None
+        if self.wire_bytes:
+            try:
+                fields = decode_cdr(data)
+            except ValueError:
+                fields = None  # rclpy reads it, or names what is wrong
+        if fields is None:
+            try:
+                fields = batch_from_ros(deserialize_message(data, AgentMessageBatch))
+            except Exception as exc:  # noqa: BLE001 - a malformed sample must not stop the executor
+                self.node.get_logger().warning(f'dropped an undecodable channel batch: {type(exc).__name__}: {exc}')
+                return
+        channel = self.channels.get(fields['recipient'])
+        if channel is None or fields['sender'] in self.channels:
             self.batches_skipped += 1
             return
         self.batches_received += 1
         touched[channel.robot] = channel
-        channel.accept_batch(msg)
+        channel.accept_fields(fields)
 
     def _take_queued(self) -> bytes | None:
         """The next batch waiting in the subscription, or None (as rclpy's executor takes it)."""
