@@ -83,3 +83,5 @@ def test_scripts_demo_opens_its_report_with_one_outcome_line_per_demo(tmp_path):
     # The plots of the bag, each with something to show (the mobile demo has robots, commands, messages).
     assert sorted(Path(p).name for p in report['bags'][0]['plots']) == [
         'message_rates.png', 'trajectories.png', 'velocities.png']
+    video = report['bags'][0]['videos'][0]                  # and its camera, to watch
+    assert read_video(run_dir / 'report' / video['path'])[0] == video['frames'] > 0
