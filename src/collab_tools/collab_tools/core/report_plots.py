@@ -52,6 +52,8 @@ BODY_STATES_TYPE = 'bridge_interfaces/msg/BodyStates'
 TWIST_TYPE = 'geometry_msgs/msg/Twist'
 ROLE_ASSIGNMENT_TYPE = 'role_interfaces/msg/RoleAssignment'
 MOBILE_ROBOT_KIND = 'mobile_robot'
+#: Bodies robots push: their paths are drawn too (dashed), from the scene's place to where they ended.
+MOVABLE_KIND = 'movable_box'
 
 
 @dataclass(frozen=True)
@@ -251,16 +253,28 @@ def plot_trajectories(bag: Path, summary: BagSummary, out_dir: Path) -> list[Pat
     goals = formation_targets(bag, summary) if topics else {}
     for topic in topics:
         paths: dict[str, list[tuple[float, float]]] = {}
+        pushed: dict[str, list[tuple[float, float, float]]] = {}      # x, y, yaw
         for _topic, _ns, msg in read_messages(bag, [topic]):
             for body in msg.bodies:
-                if body.kind != MOBILE_ROBOT_KIND:
-                    continue
-                paths.setdefault(body.name, []).append((body.pose.position.x, body.pose.position.y))
+                position, q = body.pose.position, body.pose.orientation
+                if body.kind == MOBILE_ROBOT_KIND:
+                    paths.setdefault(body.name, []).append((position.x, position.y))
+                elif body.kind == MOVABLE_KIND:
+                    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+                    pushed.setdefault(body.name, []).append((position.x, position.y, yaw))
         if not paths:
             continue
         colours = robot_colours(paths, layout)
         fig, ax = _figure(8.5, 7)
         draw_scene(ax, layout)
+        boxes = {b.name: b for b in (layout.movable_boxes if layout is not None else ())}
+        for name, path in sorted(pushed.items()):
+            xy = np.asarray(path)
+            colour = boxes[name].color if name in boxes else 'gray'
+            ax.plot(xy[:, 0], xy[:, 1], '--', color=colour, linewidth=2, label=f'{name} (pushed)', zorder=3)
+            if name in boxes:   # where it ended (the scene's hatched footprint is where it started)
+                end = Rect(name, tuple(xy[-1, :2]), boxes[name].size, float(xy[-1, 2]), boxes[name].color)
+                ax.add_patch(_rect_patch(end, facecolor=end.color, edgecolor='black', alpha=0.5, zorder=2))
         for name in sorted(paths):
             xy = np.asarray(paths[name])
             colour = colours[name]
