@@ -20,7 +20,7 @@ def twist(linear=0.0, angular=0.0):
 
 def test_bridge_survives_fuzzed_commands_and_requests_and_still_drives(session, ros_node, config_dir):
     began = time.monotonic()
-    process = session.start(bridge_spec(config_dir / 'scenarios' / 'test_single_robot.yaml'))
+    process = session.start(bridge_spec(config_dir / 'scenarios' / 'test_sensors.yaml'))   # robots with sensors
     session.wait_for_message('/pybullet_bridge/status', 'bridge_interfaces/msg/SimulationStatus', timeout=30.0)
     cmd = ros_node.create_publisher(Twist, '/robot_1/cmd_vel', QoSProfile(depth=10,
                                                                         reliability=ReliabilityPolicy.RELIABLE))
@@ -39,13 +39,11 @@ def test_bridge_survives_fuzzed_commands_and_requests_and_still_drives(session, 
     assert not step(session, 0).success
     assert not step(session, 2**32 - 1).success
     answer = session.call_service('/robot_1/set_sensor_active', 'bridge_interfaces/srv/SetSensorActive',
-                                  SetSensorActive.Request(sensor='x' * 10_000, active=True), timeout=5.0) \
-        if any(name == '/robot_1/set_sensor_active' for name, _ in ros_node.get_service_names_and_types()) \
-        else None
-    assert answer is None or not answer.success
+                                  SetSensorActive.Request(sensor='x' * 10_000, active=True))
+    assert not answer.success and len(answer.message) < 11_000
     frame = session.call_service('/top_camera/get_frame', 'bridge_interfaces/srv/GetCameraFrame',
                                  GetCameraFrame.Request(with_labels=True))
-    assert frame.success and frame.image.width == 160
+    assert frame.success and frame.image.width > 0
     session.check_alive()
 
     # Nothing moved the robot; every command dropped is counted, each kind logged once.
