@@ -62,3 +62,34 @@ def test_bridge_survives_fuzzed_commands_and_requests_and_still_drives(session, 
     assert 0.2 < math.hypot(x2 - x1, y2 - y1) < 0.5
     session.check_alive()
     print(f'bridge fuzz: {status.rejected_messages} commands dropped; {time.monotonic() - began:.0f} s (wall)')
+
+
+def test_arm_action_refuses_fuzzed_goals_and_still_places(session, ros_node, config_dir, tmp_path):
+    """pick_and_place goals with unknown, huge or empty names and NaN, inf, empty or huge regions end
+    unsuccessfully with a reason; the arm then places a cube as asked."""
+    import yaml
+    from action_msgs.msg import GoalStatus
+    from bridge_interfaces.action import PickAndPlace
+    from rclpy.action import ActionClient
+
+    from test_bridge_arm_action import CELL_1_0, send, wait
+
+    data = yaml.safe_load((config_dir / 'scenarios' / 'test_tabletop.yaml').read_text())
+    for arm in data['arms']:
+        arm['failure_probability'] = 0.0
+    scenario = tmp_path / 'tabletop.yaml'
+    scenario.write_text(yaml.safe_dump(data))
+    process = session.start(bridge_spec(scenario, start_paused=False, publish_camera=False))
+    client = ActionClient(ros_node, PickAndPlace, '/leader_arm/pick_and_place')
+    bad_goals = [('no_such_cube', CELL_1_0), ('x' * 100_000, CELL_1_0), ('', CELL_1_0),
+                 ('red_1', [math.nan] * 4), ('red_1', [math.inf, 0.0, -math.inf, 0.0]), ('red_1', []),
+                 ('red_1', [0.0] * 1000), ('red_1', [0.1, 0.1, -0.1, -0.1]), ('red_1', [1e308] * 4)]
+    for name, region in bad_goals:
+        response = wait(send(session, client, name, region).get_result_async(), check=session.check_alive)
+        assert not response.result.success and response.result.message, (name[:20], region[:4])
+        assert len(response.result.message) < 2_000                      # a capped echo of the name
+    response = wait(send(session, client, 'red_1', CELL_1_0).get_result_async(), check=session.check_alive)
+    assert response.status == GoalStatus.STATUS_SUCCEEDED and response.result.success, response.result.message
+    log = process.log_path.read_text()
+    assert 'Traceback' not in log
+    assert max(len(line) for line in log.splitlines()) < 3_000         # the log lines echo a capped name

@@ -35,6 +35,7 @@ from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
+from collab_tools.input_guard import ECHO_LIMIT
 from collab_tools.qos import SENSOR_OUT
 
 from .core.arm import Arm, Outcome, PickPlaceTask
@@ -124,8 +125,9 @@ class _PickAndPlaceServer:
 
     def _on_goal(self, goal: PickAndPlace.Goal) -> GoalResponse:
         # Accepted always: the core judges the goal when it starts and says why in the result.
-        self._logger.info(f"goal: move '{goal.object_name}' into place_region "
-                          f'{[round(float(v), 4) for v in goal.place_region]}')
+        # What a log line echoes of a goal is capped (a forged name or region can be megabytes).
+        self._logger.info(f"goal: move '{goal.object_name[:80]}' into place_region "
+                          f'{[round(float(v), 4) for v in goal.place_region[:8]]}')
         return GoalResponse.ACCEPT
 
     def _on_cancel(self, goal_handle: ServerGoalHandle) -> CancelResponse:
@@ -167,7 +169,7 @@ class _PickAndPlaceServer:
 
     def _finish(self, goal_handle: ServerGoalHandle, task: PickPlaceTask) -> PickAndPlace.Result:
         result = PickAndPlace.Result(outcome=int(task.outcome), success=task.outcome == Outcome.PLACED,
-                                     message=task.message)
+                                     message=echo_capped(task.message))
         if task.placed_position is not None:
             result.placed_position = Point(x=task.placed_position[0], y=task.placed_position[1],
                                            z=task.placed_position[2])
@@ -179,10 +181,15 @@ class _PickAndPlaceServer:
             goal_handle.abort()
         # Two call sites: rclpy loggers refuse a severity that changes between calls of one line.
         if task.outcome == Outcome.PLACED:
-            self._logger.info(f'{task.outcome.name}: {task.message}')
+            self._logger.info(f'{task.outcome.name}: {result.message}')
         else:
-            self._logger.warn(f'{task.outcome.name}: {task.message}')
+            self._logger.warn(f'{task.outcome.name}: {result.message}')
         return result
+
+
+def echo_capped(text: str, limit: int = 4 * ECHO_LIMIT) -> str:
+    """A result message (which may echo a forged goal's fields) as long as a reader can use."""
+    return text if len(text) <= limit else text[:limit] + f'... ({len(text) - limit} more characters)'
 
 
 class ArmAdapter(EntityAdapter):
