@@ -279,3 +279,16 @@ def test_sgcm_table1_resumes_to_the_same_results(tmp_path):
             return {k: plain(v) for k, v in document.items() if k not in timing}
         return [plain(v) for v in document] if isinstance(document, list) else document
     assert plain(documents[0]) == plain(documents[1]) and len(documents[1]['cases']) == 3
+
+
+def test_what_an_interrupted_step_left_is_set_aside_for_its_new_try(tmp_path):
+    from collab_tools.experiments.checkpoint import fresh_step_dir
+
+    step = tmp_path / 'case_2' / 'greedy'
+    (step / 'bags' / 'sgcm').mkdir(parents=True)
+    assert fresh_step_dir(tmp_path, step) == step and not step.exists()
+    assert (tmp_path / 'partial' / 'interrupted' / 'case_2' / 'greedy' / 'bags' / 'sgcm').is_dir()
+    step.mkdir()
+    fresh_step_dir(tmp_path, step)                     # a second interruption: kept beside the first
+    assert (tmp_path / 'partial' / 'interrupted' / 'case_2' / 'greedy-1').is_dir()
+    assert fresh_step_dir(tmp_path, tmp_path / 'new') == tmp_path / 'new'   # nothing there: nothing moved

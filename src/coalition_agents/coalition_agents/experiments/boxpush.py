@@ -45,6 +45,7 @@ import yaml
 from collab_tools.core.bag_analysis import read_messages
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
+from collab_tools.experiments.checkpoint import fresh_step_dir
 from collab_tools.experiments.plots import plt
 from collab_tools.orchestration.experiment import run_experiment
 
@@ -157,7 +158,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
         if not 0.0 <= loss <= 1.0:
             raise ConfigError(f'loss: must be in [0, 1] (got {loss!r})')
         label = f'loss_{loss:g}'
-        case_dir = Path(run_dir) / label
+        case_dir = fresh_step_dir(run_dir, Path(run_dir) / label)   # an interrupted try set aside
         overrides = {params['node']: {'loss_probability': float(loss), 'seed': seed * 100 + index * 10 + position}
                      for position, params in enumerate(agents.values())}
         log(f'[coalition-boxpush] {label}: running the simulation ({case_dir})')

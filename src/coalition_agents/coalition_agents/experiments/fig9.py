@@ -26,6 +26,7 @@ from pathlib import Path
 
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
+from collab_tools.experiments.checkpoint import fresh_step_dir
 from collab_tools.experiments.sweep import sweep
 
 from ..core.errors import ConfigError
@@ -81,7 +82,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                            settle_time_s=config.settle_time_s, loss_probability=config.loss_probability,
                            link_preset=config.link_preset, use_sim_time=False, seed=index, timeout_s=config.timeout_s,
                            host_processes=config.agent_processes)
-        case_dir = run_dir / f'n{robots:02d}'
+        case_dir = fresh_step_dir(run_dir, run_dir / f'n{robots:02d}')   # an interrupted try set aside
         log(f'[coalition-fig9 {index}/{len(wanted)}] column of {robots} robots (search_time '
             f'{setup.search_time_s:g} s) -> {case_dir}')
         began = time.monotonic()

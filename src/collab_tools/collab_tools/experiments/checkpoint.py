@@ -76,6 +76,22 @@ class Checkpoint:
         return sum(len(self.load(path.stem)) for path in self.directory.glob('*.jsonl'))
 
 
+def fresh_step_dir(run_dir: str | Path, step_dir: str | Path) -> Path:
+    """``step_dir`` (inside ``run_dir``) made ready for a step that runs again: what an interrupted attempt
+    left there (a partial bag, logs) is moved to ``RUN_DIR/partial/interrupted/`` -- kept, out of the results."""
+    step_dir = Path(step_dir)
+    if step_dir.exists():
+        relative = step_dir.resolve().relative_to(Path(run_dir).resolve())
+        target = Path(run_dir) / PARTIAL_DIR / 'interrupted' / relative
+        for attempt in range(1, 1000):
+            if not target.exists():
+                break
+            target = target.with_name(f'{relative.name}-{attempt}')
+        target.parent.mkdir(parents=True, exist_ok=True)
+        step_dir.rename(target)
+    return step_dir
+
+
 class RunRecord:
     """``RUN_DIR/run.json``: what the run was started with, and how far it got."""
 

@@ -23,6 +23,7 @@ from typing import Callable
 import numpy as np
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult, Log
+from collab_tools.experiments.checkpoint import fresh_step_dir
 
 from ..core.centralized import CentralizedPlanner
 from ..core.episode import EpisodeResult, RoundRecord, run_greedy, run_sgcm
@@ -109,7 +110,7 @@ def sim_episodes(task: TaskConfig, task_path: Path, cases: list[Case], run_dir: 
     def in_sim(index, case):
         found = {}
         for strategy in ('greedy', 'sgcm'):
-            case_dir = run_dir / case.name / strategy
+            case_dir = fresh_step_dir(run_dir, run_dir / case.name / strategy)   # an interrupted try set aside
             log(f'[sgcm-table1 {index}/{len(cases)}] {case.name}: running {strategy} in simulation '
                 f'({case_dir})')
             result = run_case(task, task_path, case, case_dir, config_dir, strategy=strategy,
