@@ -22,6 +22,7 @@ from sensor_msgs.msg import Image
 from sgcm_interfaces.msg import FollowerReport, GridState, Guidance, Move
 
 from collab_tools.orchestration.node_process import NodeSpec
+from parameter_client import set_one
 from fuzz_helpers import BAD_STAMPS, HUGE, LATCHED, NEGATIVE, assert_rejected_once_per_kind, bad_clock, \
     clock_rejections_ok, flood, publish_all, rejections
 from test_sgcm_nodes import FOLLOWER_NS, LEADER_NS, resume_once_heard, start_case
@@ -165,9 +166,16 @@ def test_a_leader_seeing_only_garbage_never_reports_the_goal(session, ros_node, 
     # Her arm's action server, so she gets as far as looking (it is never sent a goal).
     arm = ActionServer(ros_node, PickAndPlace, '/leader_arm/pick_and_place', lambda handle: PickAndPlace.Result())
     try:
+        # Started with a bound she would wait out for an hour; set to 2 s at run time, it applies at once.
         process = session.start(NodeSpec('sgcm', 'leader_planner', name='leader_planner', namespace=LEADER_NS,
                                          use_sim_time=False, required=False,
-                                         parameters=[{'task_file': str(task_file), 'perception_fault_after': 2.0}]))
+                                         parameters=[{'task_file': str(task_file), 'perception_fault_after': 3600.0}]))
+        session.wait_for_nodes([f'{LEADER_NS}/leader_planner'], 60.0)
+        deadline = time.monotonic() + 30.0
+        while camera.requests < 2:           # she looks, and the frames are rejected
+            assert time.monotonic() < deadline, 'the leader never asked for a frame'
+            time.sleep(0.1)
+        assert set_one(session, f'{LEADER_NS}/leader_planner', 'perception_fault_after', 2.0).successful
         final = session.wait_for_message('/sgcm/guidance', 'sgcm_interfaces/msg/Guidance',
                                          predicate=lambda m: m.task_complete or bool(m.status), timeout=60)
         assert not final.task_complete and final.status.startswith('perception fault: 0 of the 9 cubes'), \

@@ -22,8 +22,8 @@ from sgcm.ros_conversions import grid_state_msg
 
 LEADER = '/leader_arm/leader_planner'
 FOLLOWER = '/follower_arm/follower_executor'
-LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time'}
-FOLLOWER_DYNAMIC = {'settle_time'}
+LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time', 'perception_fault_after'}
+FOLLOWER_DYNAMIC = {'settle_time', 'perception_fault_after'}   # perception_fault_after: test_fuzz_sgcm
 
 
 def leader_spec(task_file, **parameters) -> NodeSpec:
