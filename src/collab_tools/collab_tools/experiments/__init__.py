@@ -7,6 +7,9 @@ finds them through :data:`~.registry.EXPERIMENT_PACKAGES` and runs them the same
     run(request: ExperimentRequest) -> ExperimentResult
 
 ``api`` defines those types and writes ``results.json`` (:func:`~.api.write_results`);
-``sweep`` runs a function over cases with progress lines; ``plots`` makes and saves figures
-(headless, titles and legends never clipped).
+``sweep`` is an experiment's loop (:class:`~.sweep.Steps`, ``ExperimentRequest.progress``: each finished
+step checkpointed, skipped on ``--resume``) and runs a function over cases that way; ``progress`` draws
+the bar (tqdm) or plain lines with elapsed time and ETA; ``checkpoint`` keeps ``RUN_DIR/run.json`` and
+``RUN_DIR/partial/``; ``inputs`` turns ``--config``/``--set`` into the run's configuration directory;
+``plots`` makes and saves figures (headless, titles and legends never clipped).
 """
