@@ -39,6 +39,7 @@ THIRD_PARTY_KEYS = {
     'PIL': 'python3-pil',
     'foxglove': 'python3-foxglove-sdk-pip',
     'backports': 'python3-rosbags-pip',   # backports.zstd: rosbags' own dependency below Python 3.14
+    'lz4': 'python3-rosbags-pip',         # lz4.frame: rosbags' own dependency (MCAP chunk compression)
 }
 #: Keys found in ros/rosdistro's rosdep/python.yaml; every other key must be defined by the
 #: workspace's own rosdep source (config/rosdep/*.yaml).
