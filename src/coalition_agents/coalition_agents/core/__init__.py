@@ -92,6 +92,8 @@ Streamed information (Fig. 9 flows)          transport.information_stream (Infor
 An agent's parameters (ours)                 settings (AGENT_SETTINGS, AgentSettings)
 Agents sharing one process (ours)            cooperative_work (CooperativeWork): bounded,
                                              round-robin reasoning steps
+Coalitions and fields of view watched live   markers (CoalitionMarkers)
+(ours)
 ===========================================  ==================================================
 
 Choices where the paper is silent or ambiguous (each is documented where it is made)

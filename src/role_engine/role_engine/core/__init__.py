@@ -78,6 +78,8 @@ Sec. V-A-3/4, Figs. 11-12 (task vs role        role_engine.experiments.collab (c
 based; narrow hallway)                         simulation of the nodes' RolePlayer)
 Sec. V-B, Figs. 15-16 (diamond, real robots)   role_engine.experiments.formation (the nodes
                                                in simulation, measured from the bag)
+E-Map, roles and process roles watched live    markers (RoleMarkers)
+(ours)
 =============================================  ==================================================
 
 Supporting modules (ours): ``grid`` (cell <-> world), ``environment`` (also the map files: Nav2

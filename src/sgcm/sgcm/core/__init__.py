@@ -78,6 +78,7 @@ the grid, or it is not used)                    perception fault)
 The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
                                                 LeaderSettings, FollowerExecutorSettings)
 Table I, Fig. 4, Fig. 5 experiments             sgcm.experiments (table1, disturbance)
+Fig. 1 set-up watched live (ours)               markers (SgcmMarkers: grid, estimate, moves)
 ==============================================  ====================================================
 
 Choices where the paper is silent (each documented where it is made)
