@@ -234,6 +234,8 @@ def test_ctrl_c_keeps_the_finished_steps_and_says_how_to_resume(tmp_path):
     (['sgcm-table1', '--mode', 'sim', '--failures'], '--failures: only with --mode core'),
     (['coalition-fig9', '--column', 'x.yaml', '--set', 'robots=[2]'], '--column and --set'),
     (['roles-table4', '--resume', '/no/such/run'], 'holds no readable run.json'),
+    (['roles-table3', '--live'], 'unrecognized arguments: --live'),   # starts no nodes
+    (['sgcm-table1', '--live'], '--live: only with --mode sim'),
 ])
 def test_refused_input_exits_2_and_leaves_no_run_directory(tmp_path, args, message):
     done = experiment_command(args, tmp_path)
@@ -246,7 +248,7 @@ def test_help_shows_only_the_experiments_own_options():
                           capture_output=True, text=True, timeout=120)
     flags = set(re.findall(r'^\s+(--[a-z-]+)', done.stdout, re.MULTILINE))
     assert done.returncode == 0 and {'--config', '--set', '--resume', '--run-dir'} <= flags
-    assert not flags & {'--loss', '--mode', '--only', '--seed', '--robots'}
+    assert not flags & {'--loss', '--mode', '--only', '--seed', '--robots', '--live'}
 
 
 def test_a_loop_in_its_own_code_is_checkpointed_through_steps(tmp_path):

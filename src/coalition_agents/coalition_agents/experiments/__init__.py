@@ -43,7 +43,8 @@ EXPERIMENTS = (
                                      '(default config/coalitions/scenarios/fig7.yaml)'),
                 Option('--team', 'team capability file (robot types with their sensors\' fov_deg/range_m); '
                                  'default: the scenario\'s team')),
-               config_file='coalitions/scenarios/fig7.yaml', config_option='scenario', seeded=('mode', ('sim',))),
+               config_file='coalitions/scenarios/fig7.yaml', config_option='scenario', seeded=('mode', ('sim',)),
+               starts_nodes=('mode', ('sim',))),
     Experiment('coalition-fig9', f'{PAPER}, Sec. V-A-4, Fig. 9',
                'column of robots: time to find the coalition, messages (Fig. 9)',
                'coalition_agents.experiments.fig9',
@@ -51,7 +52,7 @@ EXPERIMENTS = (
                        type=int, nargs='+', metavar='N'),
                 Option('--column', 'column file: sizes, spacing, fiducial, link, times '
                                    '(default config/coalitions/scenarios/fig9_column.yaml)')),
-               config_file='coalitions/scenarios/fig9_column.yaml', config_option='column'),
+               config_file='coalitions/scenarios/fig9_column.yaml', config_option='column', starts_nodes=True),
     Experiment('coalition-boxpush', f'{PAPER}, Sec. V-A-5, Fig. 10/11',
                'box pushing + navigation with executable coalitions, message loss 0 and 0.2 (sim)',
                'coalition_agents.experiments.boxpush',
@@ -62,7 +63,8 @@ EXPERIMENTS = (
                 Option('--team', 'team capability file (default: the experiment\'s capability_file)'),
                 Option('--agents', 'the agents\' shared ROS 2 parameter file (default '
                                    'config/coalitions/boxpush_agents.yaml)')),
-               config_file='experiments/coalition_boxpush.yaml', config_option='experiment', seeded=True),
+               config_file='experiments/coalition_boxpush.yaml', config_option='experiment', seeded=True,
+               starts_nodes=True),
 )
 
 

@@ -95,6 +95,8 @@ class Experiment:
     config_option: the experiment's own option naming that file (``--column``), exclusive with both.
     seeded: whether ``--seed`` means anything to it: True, False (no ``--seed`` option) or
     (dest, values) like :attr:`Option.only_when` (``--seed`` only in ``--mode sim``).
+    starts_nodes: whether a run starts ROS nodes (so ``--live`` can show them): True, False (no
+    ``--live`` option) or (dest, values) as for ``seeded``.
     """
     name: str
     paper: str
@@ -105,6 +107,7 @@ class Experiment:
     config_file: str | None = None
     config_option: str | None = None
     seeded: bool | tuple[str, tuple[Any, ...]] = False
+    starts_nodes: bool | tuple[str, tuple[Any, ...]] = False
 
     def runner(self) -> Callable[['ExperimentRequest'], 'ExperimentResult']:
         return getattr(import_module(self.module), self.function)

@@ -59,7 +59,7 @@ EXPERIMENTS = (
     Experiment('roles-formation', f'{PAPER}, Sec. V-B (Figs. 15-16)',
                'four robots of two types form a diamond in simulation through the nodes, recorded',
                'role_engine.experiments.formation', config_file='roles/formation_demo.yaml',
-               config_option='settings',
+               config_option='settings', starts_nodes=True,
                options=(Option('--settings', 'the role nodes\' settings file; its scenario is the team (default '
                                'config/roles/formation_demo.yaml)', metavar='FILE'),
                         Option('--map', 'a Nav2 map YAML: the simulated obstacles (replaces the scenario\'s)',

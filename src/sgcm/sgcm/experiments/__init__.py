@@ -37,7 +37,7 @@ EXPERIMENTS = (
     Experiment(
         'sgcm-table1', f'{PAPER}, Table I and Fig. 4',
         'greedy vs SGCM on the ten cases (Table I, Fig. 4)', 'sgcm.experiments.table1',
-        config_file='sgcm/task.yaml', config_option='task', seeded=True,
+        config_file='sgcm/task.yaml', config_option='task', seeded=True, starts_nodes=('mode', ('sim',)),
         options=(Option('--mode', 'core = the abstract game; sim = both arms in pybullet through the nodes, '
                                   'every run recorded and the table computed from the bags',
                         choices=('core', 'sim'), default='core'),
