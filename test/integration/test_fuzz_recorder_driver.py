@@ -31,6 +31,12 @@ def test_driver_and_recorder_survive_a_bad_clock_and_finish(session, ros_node, c
     clock = collect(ros_node, Clock, '/clock', reliable=True)
     driver = session.start(NodeSpec('collab_tools', 'scripted_driver', parameters=[{'plan_file': str(plan)}]))
     session.wait_for_nodes(['/scripted_driver'], timeout=30.0)
+    deadline = time.monotonic() + 30.0                    # the recorder has found the driver's topic
+    while not any(info.node_name == 'bag_recorder'
+                  for info in ros_node.get_subscriptions_info_by_topic('/robot_1/cmd_vel')):
+        assert time.monotonic() < deadline, 'the recorder never subscribed to /robot_1/cmd_vel'
+        session.check_alive()
+        time.sleep(0.1)
     assert session.call_service('/pybullet_bridge/pause', 'std_srvs/srv/SetBool', _resume()).success
     deadline = time.monotonic() + 20.0
     while not clock and time.monotonic() < deadline:
