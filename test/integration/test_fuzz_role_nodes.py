@@ -105,7 +105,10 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
     round_ = assignment.round
 
     # The channel: engine + four players hear it.
-    channel = publish_all(ros_node, ProcessRole, '/roles/channel', malformed_roles(round_), subscribers=5)
+    # (a player busy re-planning keeps the newest 10 messages: spaced, each kind reaches every node)
+    channel = publish_all(ros_node, ProcessRole, '/roles/channel', malformed_roles(round_), subscribers=5,
+                          pause=0.2)
+    time.sleep(1.0)
     flood(channel, role('pioneer_1', round_, x=[math.nan] * 3), 200, seconds=1.0)
     # The assignment (players only) and the team (players and tracker; the tracker converts it).
     # (the players keep one assignment: a pause lets each be taken before the next)
