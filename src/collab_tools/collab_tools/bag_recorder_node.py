@@ -5,7 +5,11 @@ publishers offer, like `ros2 bag record`: reliable only if every publisher is
 reliable, transient-local only if every publisher is. The offered QoS profiles, the
 publishers' type hash and the message definitions (custom types from their installed
 .msg and .action files, so an action's feedback and status topics too) go into the bag.
-New topics are picked up as they appear. The bag is closed on shutdown (SIGINT).
+New topics are picked up as they appear. On SIGINT/SIGTERM the recorder drains, then closes the
+bag: it looks for no new topic and takes what its queues still hold (a recorder behind a flood
+holds seconds of it) until no message published before the signal has come for
+``drain_quiet_period``, at most ``drain_timeout``; what is still queued then is counted lost
+(``drain_left``, core.recording_loss.DrainRule).
 
 A topic the recorder cannot record (several types on it, a type it cannot import or
 find a definition for, a definition whose hash differs from the publishers') is an
@@ -29,6 +33,7 @@ A topic's queue holds ``queue_seconds`` of its expected rate (``topic_rates``), 
 import os
 import re
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
@@ -41,14 +46,19 @@ from std_msgs.msg import Header
 from .core.bag_storage import ROS_DISTRO
 from .core.bag_types import build_typestore
 from .core.bag_writer import BagWriter, QosSpec
-from .core.recording_loss import STATUS_FILE, LossLedger, queue_depth, write_status
+from .core.recording_loss import STATUS_FILE, DrainRule, LossLedger, queue_depth, write_status
 from .core.tool_settings import RECORDER_SETTINGS, parse_topic_rates
 from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
+from .queued_messages import count_published_before, take_queued
 from .ros_interfaces import import_interface
 
 EXIT_UNRECORDED = 1
 QUEUE_DEPTH_MAX = 100_000
+#: Seconds spent at most counting what a timed-out drain left queued (taken, not written).
+LEFT_COUNT_BOUND = 1.0
+#: Messages a subscription callback takes at most from its queue after its own (other topics wait meanwhile).
+TAKE_BATCH = 64
 
 
 def subscription_qos(offered: list[QoSProfile], depth: int) -> QoSProfile:
@@ -81,6 +91,9 @@ class BagRecorder(Node):
             raise ConfigurationError(f'parameter topic_rates: {error}') from None
         self.queue_seconds, self.queue_depth = values['queue_seconds'], values['queue_depth']
         self.loss = LossLedger()
+        self.drain_quiet_period, self.drain_timeout = values['drain_quiet_period'], values['drain_timeout']
+        self._stop_ns: int | None = None  # wall-clock time of the stop signal, once draining
+        self._drain: DrainRule | None = None
         self.publisher_counts: dict[str, int] = {}
 
         self.type_names: set[str] = set()
@@ -168,7 +181,7 @@ class BagRecorder(Node):
             depth = queue_depth(self.rates.get(topic, 0.0), self.queue_seconds, self.queue_depth, QUEUE_DEPTH_MAX)
             events = SubscriptionEventCallbacks(
                 message_lost=lambda info, topic=topic: self.loss.reported_lost(topic, info.total_count))
-            callback, qos = (lambda data, info, topic=topic: self._write(topic, data, info)), \
+            callback, qos = (lambda data, info, topic=topic: self._take(topic, data, info)), \
                 subscription_qos(offered, depth)
             try:
                 subscription = self.create_subscription(msg_type, topic, callback, qos, raw=True,
@@ -181,8 +194,18 @@ class BagRecorder(Node):
         self.subscriptions_by_topic[topic] = subscription
         self.get_logger().info(f'recording {topic} [{type_name}] (queue depth {depth})')
 
+    def _take(self, topic: str, data: bytes, info: dict) -> None:
+        """The executor's message, then up to TAKE_BATCH more straight from the queue: the executor's own
+        path (wait set, task, coroutine per message) costs several times the write."""
+        self._write(topic, data, info)
+        subscription = self.subscriptions_by_topic.get(topic)
+        for more in take_queued(subscription, TAKE_BATCH) if subscription is not None else ():
+            self._write(topic, *more)
+
     def _write(self, topic: str, data: bytes, info: dict) -> None:
         self.loss.received(topic, info.get('publication_sequence_number'), self.publisher_counts.get(topic, 1))
+        if self._stop_ns is not None and info.get('source_timestamp', 0) <= self._stop_ns:
+            self._drain.took(time.monotonic())
         try:
             self.writer.write(topic, self.get_clock().now().nanoseconds, data)
         except Exception:
@@ -191,6 +214,23 @@ class BagRecorder(Node):
             self.loss.write_failed(topic)
             raise  # a storage error: the recorder stops, its bag is repaired (bag_reindex)
         self.loss.written(topic)
+
+    def drain(self, executor, stop_ns: int) -> None:
+        """After SIGINT/SIGTERM (node_support.run drain_on_stop): take what the queues hold (module docstring)."""
+        self.destroy_timer(self.discovery_timer)  # no new topic from now on
+        self.loss.drain_started()
+        self._drain = rule = DrainRule(self.drain_quiet_period, self.drain_timeout, time.monotonic())
+        self._stop_ns = stop_ns
+        while not rule.done(now := time.monotonic()):
+            executor.spin_once(timeout_sec=rule.wait(now))
+        timed_out, seconds = rule.timed_out(now), now - rule.started
+        # What is still queued is lost: counted (taken, not written), for at most LEFT_COUNT_BOUND.
+        queued = {t: s for t, s in self.subscriptions_by_topic.items() if s is not None}
+        self.loss.drain_ended(count_published_before(queued, stop_ns, self.drain_quiet_period, LEFT_COUNT_BOUND)
+                              if timed_out else {})
+        drained = sum(c.drained for c in self.loss.topics.values())
+        self.get_logger().info(f'drained {drained} queued message(s) in {seconds:.2f} s'
+                               + (' (drain_timeout reached)' if timed_out else ''))
 
     def _flush(self) -> None:
         """Put the pending chunk into the file and the counts into the status file (module docstring)."""
@@ -232,11 +272,8 @@ class BagRecorder(Node):
         custom = self.loss.custom_data()
         for key, value in custom.items():
             self.writer.set_custom_data(key, value)
-        lossy = self.loss.lossy_topics()
-        if lossy:
-            self.get_logger().error(
-                f'{self.loss.total_lost} message(s) LOST (not in the bag): '
-                + ', '.join(f'{topic}: {n} of {n + self.loss.topics[topic].written}' for topic, n in lossy.items()))
+        for line in self.loss.loss_lines(self.drain_timeout):
+            self.get_logger().error(line)
         self.writer.close()
         self._write_status(custom, 'closed')
         self.get_logger().info(
@@ -251,7 +288,7 @@ def main(args=None) -> int:
         recorders.append(BagRecorder())
         return recorders[-1]
 
-    code = run(make, 'bag_recorder', args)
+    code = run(make, 'bag_recorder', args, drain_on_stop=True)
     if code == 0 and recorders and recorders[0].failures:
         return EXIT_UNRECORDED
     return code

@@ -7,13 +7,18 @@ end on its own sets ``exit_when_done`` and a ``finished`` Future, so an orchestr
 script can wait for it; others spin until shutdown. A node that ended without doing its task
 (a leader's perception fault) sets ``exit_code`` (:data:`EXIT_TASK_FAILED`) before finishing.
 Malformed messages never end a node: see :mod:`collab_tools.input_guard`.
+A node that must finish its work after SIGINT/SIGTERM (the recorder takes what its queues still
+hold) is run with ``drain_on_stop``: the signal only asks it to stop, and its ``drain`` method runs
+on a live context before the node is destroyed.
 """
 
 import signal
+import time
 
 import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from .core.errors import ConfigurationError  # re-exported: nodes raise it
@@ -36,9 +41,43 @@ def stop_signal_handling() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], ...] = ()) -> int:
-    """Create the node and spin it until its ``finished`` future (exit_when_done) or shutdown."""
-    rclpy.init(args=args)
+def _request_stop_on_signals() -> list[int]:
+    """SIGINT/SIGTERM append their wall-clock time (ns) to the returned list, once; nothing else."""
+    stop_ns: list[int] = []
+
+    def request_stop(_signum, _frame):
+        if not stop_ns:
+            stop_ns.append(time.time_ns())
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    return stop_ns
+
+
+def _spin_until_signal(node, stop_ns: list[int]) -> None:
+    """Spin ``node`` until a signal, then call ``node.drain(executor, stop_ns)`` on the live context
+    (``stop_ns``: wall-clock time of the signal). A second signal during the drain is ignored: the
+    orchestration escalates to SIGKILL if the drain overruns."""
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        while not stop_ns and rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)  # the Python handler runs between waits
+        if stop_ns:
+            node.drain(executor, stop_ns[0])
+    finally:
+        executor.remove_node(node)
+        executor.shutdown(timeout_sec=0.0)
+
+
+def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], ...] = (),
+        drain_on_stop: bool = False) -> int:
+    """Create the node and spin it until its ``finished`` future (exit_when_done) or shutdown.
+
+    ``drain_on_stop``: rclpy installs no signal handler (its handler shuts the context down at once);
+    a signal calls the node's ``drain`` instead (module docstring)."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO if drain_on_stop else None)
+    stop_ns = _request_stop_on_signals() if drain_on_stop else []  # before the node: no signal is missed
     try:
         node = node_class()
     except (ConfigurationError, ParameterException, *config_errors) as error:
@@ -53,6 +92,8 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
             # Give the last messages a moment to reach late subscribers (recorders).
             rclpy.spin_until_future_complete(node, Future(), timeout_sec=0.5)
             code = int(getattr(node, 'exit_code', 0) or 0)
+        elif drain_on_stop:
+            _spin_until_signal(node, stop_ns)
         else:
             rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -10,8 +10,8 @@ import yaml
 
 from collab_tools.core.bag_types import build_typestore
 from collab_tools.core.bag_writer import BagWriter, QosSpec
-from collab_tools.core.recording_loss import (STATUS_FILE, LossLedger, SequenceGaps, lost_on, queue_depth,
-                                              read_status, write_status)
+from collab_tools.core.recording_loss import (STATUS_FILE, DrainRule, LossLedger, SequenceGaps, lost_on,
+                                              queue_depth, read_status, write_status)
 from collab_tools.core.tool_settings import RECORDER_SETTINGS, parse_topic_rates
 from collab_tools.orchestration.recordings import Recording, finish_recording
 
@@ -56,10 +56,45 @@ def test_ledger_counts_and_custom_data():
     custom = ledger.custom_data()
     assert custom['messages_lost'] == '6'
     assert json.loads(custom['recorder_counts'])['/a'] == {'received': 4, 'written': 4, 'gaps': 3,
-                                                           'reported_lost': 0, 'write_failed': 0, 'lost': 3}
+                                                           'reported_lost': 0, 'write_failed': 0, 'drained': 0,
+                                                           'drain_left': 0, 'lost': 3}
     assert lost_on(custom) == {'/a': 3, '/b': 3}
     assert lost_on(custom, ['/a', '/c']) == {'/a': 3}
     assert lost_on({}) is None and lost_on({'recorder_counts': 'not json'}) is None
+
+
+def test_drain_ends_when_quiet_or_at_its_bound():
+    rule = DrainRule(quiet_period=0.3, timeout=2.0, now=10.0)
+    assert not rule.done(10.2) and rule.wait(10.2) == pytest.approx(0.1)
+    rule.took(10.25)                      # a queued message: the quiet period starts again
+    assert not rule.done(10.5) and rule.done(10.55) and not rule.timed_out(10.55)
+    busy = DrainRule(quiet_period=0.3, timeout=1.0, now=0.0)
+    for t in (0.2, 0.4, 0.6, 0.8, 0.95):  # never quiet: the bound ends it, timed out
+        busy.took(t)
+    assert not busy.done(0.99) and busy.done(1.0) and busy.timed_out(1.0)
+    assert busy.wait(0.99) == pytest.approx(0.01)
+    assert DrainRule(0.3, 0.0, now=5.0).timed_out(5.0)  # drain_timeout 0: no drain
+
+
+def test_a_drain_cut_short_is_lost_and_said_so():
+    ledger = LossLedger()
+    for topic in ('/fast', '/slow'):
+        ledger.add_topic(topic)
+    for n in range(1, 6):
+        ledger.received('/fast', n)
+        ledger.written('/fast')
+    ledger.drain_started()
+    for n in range(6, 9):                 # taken during the drain
+        ledger.received('/fast', n)
+        ledger.written('/fast')
+    ledger.drain_ended({'/fast': 4})      # still queued at the bound
+    fast = ledger.topics['/fast']
+    assert (fast.drained, fast.drain_left, fast.lost, ledger.total_lost) == (3, 4, 4, 4)
+    assert ledger.topics['/slow'].lost == 0 and list(ledger.drain_incomplete()) == ['/fast']
+    assert lost_on(ledger.custom_data()) == {'/fast': 4}
+    assert ledger.loss_lines(3.0) == [
+        '/fast: DRAIN INCOMPLETE, 3 taken after the stop, at least 4 still queued at drain_timeout (3 s)',
+        '4 message(s) LOST (not in the bag): /fast: 4 of 12']
 
 
 def test_status_file_round_trip(tmp_path):

@@ -14,8 +14,14 @@ it failed to write. Per topic:
 * ``gaps``: messages the publishers sent after the first one received and the recorder never
   got (sequence gaps); ``reported_lost``: the middleware's message_lost total;
 * ``write_failed``: messages received and not written (storage error);
-* ``lost`` = max(gaps, reported_lost) + write_failed (a message lost in transport can show as
-  both a gap and an event).
+* ``drained``: messages taken after the stop signal, from what the queues still held (the drain);
+* ``drain_left``: messages published before the stop that were still queued when the drain hit its
+  bound (counted, not written; at least that many: counting is bounded too);
+* ``lost`` = max(gaps, reported_lost) + write_failed + drain_left (a message lost in transport can
+  show as both a gap and an event).
+
+A stopping recorder drains (:class:`DrainRule`): a slow recorder is seconds behind a flood, and
+what its queues hold was never taken, so no sequence gap shows it.
 
 Each publisher numbers its own samples, so a topic with several publishers keeps one sequence
 per publisher: a number continues the one whose last number is the closest below it, and starts
@@ -38,7 +44,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ['LossLedger', 'SequenceGaps', 'STATUS_FILE', 'TopicCounts', 'lost_on', 'queue_depth',
+__all__ = ['DrainRule', 'LossLedger', 'SequenceGaps', 'STATUS_FILE', 'TopicCounts', 'lost_on', 'queue_depth',
            'read_status', 'write_status']
 
 STATUS_FILE = 'recorder_status.yaml'
@@ -73,10 +79,12 @@ class TopicCounts:
     gaps: int = 0
     reported_lost: int = 0
     write_failed: int = 0
+    drained: int = 0
+    drain_left: int = 0
 
     @property
     def lost(self) -> int:
-        return max(self.gaps, self.reported_lost) + self.write_failed
+        return max(self.gaps, self.reported_lost) + self.write_failed + self.drain_left
 
 
 class LossLedger:
@@ -85,6 +93,7 @@ class LossLedger:
     def __init__(self) -> None:
         self.topics: dict[str, TopicCounts] = {}
         self._sequences: dict[str, SequenceGaps] = {}
+        self._received_at_stop: dict[str, int] = {}
 
     def add_topic(self, topic: str) -> None:
         self.topics.setdefault(topic, TopicCounts())
@@ -95,6 +104,18 @@ class LossLedger:
         counts.received += 1
         if sequence_number:  # 0 / None: the rmw does not number its samples
             counts.gaps += self._sequences[topic].observe(int(sequence_number), publishers)
+
+    def drain_started(self) -> None:
+        self._received_at_stop = {topic: c.received for topic, c in self.topics.items()}
+
+    def drain_ended(self, left: dict[str, int]) -> None:
+        """``left``: per topic, the messages published before the stop still queued at the drain's bound."""
+        for topic, counts in self.topics.items():
+            counts.drained = counts.received - self._received_at_stop.get(topic, 0)
+            counts.drain_left = left.get(topic, 0)
+
+    def drain_incomplete(self) -> dict[str, TopicCounts]:
+        return {topic: c for topic, c in sorted(self.topics.items()) if c.drain_left}
 
     def written(self, topic: str) -> None:
         self.topics[topic].written += 1
@@ -113,6 +134,16 @@ class LossLedger:
     def lossy_topics(self) -> dict[str, int]:
         return {topic: c.lost for topic, c in sorted(self.topics.items()) if c.lost}
 
+    def loss_lines(self, drain_timeout: float) -> list[str]:
+        """What the recorder logs as errors when the bag closes (nothing when nothing was lost)."""
+        lines = [f'{topic}: DRAIN INCOMPLETE, {c.drained} taken after the stop, at least {c.drain_left} '
+                 f'still queued at drain_timeout ({drain_timeout:g} s)' for topic, c in self.drain_incomplete().items()]
+        lossy = self.lossy_topics()
+        if lossy:
+            lines.append(f'{self.total_lost} message(s) LOST (not in the bag): ' + ', '.join(
+                f'{topic}: {n} of {n + self.topics[topic].written}' for topic, n in lossy.items()))
+        return lines
+
     def report(self) -> dict[str, dict[str, int]]:
         return {topic: {**asdict(c), 'lost': c.lost} for topic, c in sorted(self.topics.items())}
 
@@ -120,6 +151,36 @@ class LossLedger:
         """metadata.yaml custom_data entries (rosbag2 keeps only strings there)."""
         return {'messages_lost': str(self.total_lost),
                 'recorder_counts': json.dumps(self.report(), sort_keys=True, separators=(',', ':'))}
+
+
+class DrainRule:
+    """When a stopping recorder has taken what its queues held.
+
+    It keeps taking until no message published before the stop has come for ``quiet_period``
+    seconds (done), or ``timeout`` seconds after the stop (timed out: whatever is still queued is
+    lost). Messages published after the stop do not keep it going (a steady topic never goes quiet).
+    Times in seconds, any monotonic clock."""
+
+    def __init__(self, quiet_period: float, timeout: float, now: float) -> None:
+        self.quiet_period, self.timeout = quiet_period, timeout
+        self.started = self.last_taken = now
+
+    def took(self, now: float) -> None:
+        """A message published before the stop was taken."""
+        self.last_taken = now
+
+    def quiet(self, now: float) -> bool:
+        return now - self.last_taken >= self.quiet_period
+
+    def timed_out(self, now: float) -> bool:
+        return not self.quiet(now) and now - self.started >= self.timeout
+
+    def done(self, now: float) -> bool:
+        return self.quiet(now) or self.timed_out(now)
+
+    def wait(self, now: float) -> float:
+        """How long the next wait for a message may block (never past quiet or the bound)."""
+        return max(0.0, min(self.last_taken + self.quiet_period, self.started + self.timeout) - now)
 
 
 def lost_on(custom_data: dict[str, Any] | None, topics: list[str] | None = None) -> dict[str, int] | None:

@@ -67,6 +67,12 @@ RECORDER_SETTINGS = SettingsSchema(
     Setting('chunk_flush_period', 1.0, 'seconds (wall clock) after which the chunk being filled is written '
             'even if not full: a killed recorder loses at most that much (bag_reindex repairs the rest)',
             low=0.05, high=600.0),
+    Setting('drain_quiet_period', 0.3, 'seconds (wall clock): on SIGINT/SIGTERM the recorder keeps taking what '
+            'its queues hold until no message published before the stop came for this long, then closes the bag',
+            low=0.01, high=10.0),
+    Setting('drain_timeout', 3.0, 'seconds (wall clock) the drain after SIGINT/SIGTERM may last at most; '
+            'messages still queued then are counted lost (drain_left). Keep it below the orchestration\'s '
+            'stop timeout (10 s) minus the close', low=0.0, high=6.0),
 )
 
 DRIVER_SETTINGS = SettingsSchema(
