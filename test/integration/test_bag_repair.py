@@ -1,6 +1,7 @@
 """A recorder killed with SIGKILL leaves a bag the session repairs (rosbags and mcap's indexed
 reader open it, nearly every message kept); a flood the recorder cannot keep up with is
-counted: lost = published - recorded, for our own publisher."""
+counted: lost = published - recorded, for our own publisher; a recorder stopped while behind a burst
+drains its queues first (every message in the bag), and a drain cut short is a counted loss (exit 5)."""
 import json
 import os
 import signal
