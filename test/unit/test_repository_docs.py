@@ -49,3 +49,19 @@ def test_citation_file_cites_the_workspace_and_the_three_papers():
         assert [f"{a['given-names']} {a['family-names']}" for a in ref['authors']] == authors
     assert references['IQ-ASyMTRe: Forming Executable Coalitions for Tightly Coupled Multirobot Tasks'][
         'journal'] == 'IEEE Transactions on Robotics'
+
+
+def readme_link_targets() -> list[str]:
+    """Relative targets of the README's Markdown links (web addresses and in-page anchors left out)."""
+    text = (ROOT / 'README.md').read_text()
+    targets = re.findall(r'\]\(([^)\s]+)\)', text)
+    return [t.split('#', 1)[0] for t in targets
+            if not re.match(r'[a-z]+://|mailto:|#', t) and t.split('#', 1)[0]]
+
+
+def test_readme_links_only_to_what_a_clone_contains():
+    text = (ROOT / 'README.md').read_text()
+    outside = [line.strip() for line in text.splitlines() if re.search(r'\.\./shared|/work/|`issues`', line)]
+    assert not outside, f'README points outside the repository: {outside[:5]}'
+    missing = [t for t in readme_link_targets() if not (ROOT / t).exists()]
+    assert not missing, f'README links to files a clone does not have: {missing}'
