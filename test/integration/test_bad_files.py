@@ -3,7 +3,7 @@ never a traceback (issue 16.6); the bridge's reset service loads scenarios only 
 scenario_directories and stays alive (issue 16.7).
 
 Each node kind gets one bad kind of file (together they cover the kinds the issue found crashing a
-node); every kind against every loader is unit tested (test/unit/test_bad_files.py)."""
+node); every kind against every loader is unit tested (test/unit/test_bad_file_loaders.py)."""
 import os
 from pathlib import Path
 

@@ -213,3 +213,12 @@ def test_the_checks_see_the_workspace():
     assert 'pybullet' in _reaches(edges, 'pybullet_bridge.core.scene')
     cycles = _cycles(_edges(with_parents=False), 'pybullet_bridge')
     assert all(len(c) > 1 for c in cycles)  # the finder reports components, not single modules
+
+
+def test_test_files_have_unique_names():
+    # pytest's default import mode imports test files by their base name: two test_x.py in
+    # different folders stop the whole collection ("import file mismatch") on a clean checkout.
+    names = defaultdict(list)
+    for path in (WORKSPACE / 'test').rglob('test_*.py'):
+        names[path.name].append(str(path.relative_to(WORKSPACE)))
+    assert {name: paths for name, paths in names.items() if len(paths) > 1} == {}
