@@ -123,7 +123,7 @@ class SchemaAgentNode(Node):
         self.finished = Future()
         self.lifecycle = AgentLifecycle(agent, settings, self, self.channel)
         # Per-robot names are relative (this node's namespace is its robot's).
-        self.status_pub = self.create_publisher(AgentStatus, 'coalition', qos.LATCHED_STREAM)  # every transition reaches a bag
+        self.status_pub = self.create_publisher(AgentStatus, 'coalition', qos.LATCHED)
         self.sensor_client = self.create_client(SetSensorActive, 'set_sensor_active')
         self._pending_switches: list[tuple[str, bool]] = []
         self._retrieved: dict[str, tuple] = {}  # sensor -> the instances of its last report

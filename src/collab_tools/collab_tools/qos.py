@@ -13,8 +13,9 @@ publishers; a volatile subscription matches volatile and transient-local publish
 * ``LATCHED``: state published once or on change (legend, camera pose, assignments, statuses):
   reliable, transient local, depth 1; subscribers use it too, so late joiners get the last value.
 * ``RELIABLE``: events that must arrive (channels, guidance, reports): reliable, volatile.
-* ``STREAM`` / ``LATCHED_STREAM``: fast reliable streams a recorder keeps whole (/clock; the
-  bodies' ground truth, latched): as RELIABLE / LATCHED with a 100-sample writer history.
+* ``STREAM``: a fast reliable stream a recorder keeps whole (/clock): RELIABLE with a 100-sample
+  writer history. (A latched topic keeps depth 1: a deeper transient-local history is replayed
+  oldest first to late joiners, who then read a stale value as the latest.)
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
@@ -27,11 +28,7 @@ LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Relia
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
-#: A fast reliable stream a recorder must keep whole (/clock at up to 250 Hz, the bodies' ground
-#: truth): a reliable writer with KEEP_LAST overwrites samples a slow reader has not acknowledged,
+#: A fast reliable stream a recorder must keep whole (/clock at up to 250 Hz): a reliable writer with KEEP_LAST overwrites samples a slow reader has not acknowledged,
 #: so its history must cover a reader's stall (100 samples: 0.4 s at 250 Hz) or the bag has gaps.
 STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
-#: LATCHED for a state published as a stream (late joiners get the newest, slow readers miss none).
-LATCHED_STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                            durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -39,7 +39,7 @@ from collab_tools.core.input_checks import MalformedInput
 from collab_tools.input_guard import InputGuard
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
-from collab_tools.qos import LATCHED_STREAM, RELIABLE, STREAM
+from collab_tools.qos import LATCHED, RELIABLE, STREAM
 
 from . import arm_adapter  # noqa: F401  (registers the arms' adapter)
 from . import sensor_adapter  # noqa: F401  (registers the robots' adapter with their sensors)
@@ -98,7 +98,7 @@ class PybulletBridge(Node):
         self.clock_pub = self.create_publisher(ClockMsg, '/clock', STREAM)
         # Ground truth keeps its latest sample for late joiners, so a paused simulation can
         # still be inspected; the camera is a sensor (best effort, no history).
-        self.bodies_pub = self.create_publisher(BodyStates, 'ground_truth/bodies', LATCHED_STREAM)
+        self.bodies_pub = self.create_publisher(BodyStates, 'ground_truth/bodies', LATCHED)
         self.status_pub = self.create_publisher(SimulationStatus, '~/status', RELIABLE)
         self.tf = TfPublisher(self)
         self.camera = CameraPublisher(self, self.params, scenario.camera.frame_id)
