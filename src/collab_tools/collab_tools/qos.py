@@ -28,7 +28,7 @@ LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Relia
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
-#: A fast reliable stream a recorder must keep whole (/clock at up to 250 Hz): a reliable writer with KEEP_LAST overwrites samples a slow reader has not acknowledged,
-#: so its history must cover a reader's stall (100 samples: 0.4 s at 250 Hz) or the bag has gaps.
+#: A fast reliable stream a recorder must keep whole (/clock at up to 250 Hz): a reliable writer
+#: with KEEP_LAST overwrites samples a slow reader has not acknowledged, so its history must cover a reader's stall (100 samples: 0.4 s at 250 Hz) or the bag has gaps.
 STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
