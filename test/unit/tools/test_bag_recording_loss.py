@@ -57,7 +57,7 @@ def test_ledger_counts_and_custom_data():
     assert custom['messages_lost'] == '6'
     assert json.loads(custom['recorder_counts'])['/a'] == {'received': 4, 'written': 4, 'gaps': 3,
                                                            'reported_lost': 0, 'write_failed': 0, 'drained': 0,
-                                                           'drain_left': 0, 'lost': 3}
+                                                           'drain_left': 0, 'superseded': 0, 'lost': 3}
     assert lost_on(custom) == {'/a': 3, '/b': 3}
     assert lost_on(custom, ['/a', '/c']) == {'/a': 3}
     assert lost_on({}) is None and lost_on({'recorder_counts': 'not json'}) is None
@@ -187,3 +187,16 @@ def test_summary_and_report_show_the_loss_and_the_repair(tmp_path):
     assert summary.lost == {'/a': 4} and 'unclean stop' in summary.repaired
     text = format_summary(summary)
     assert 'LOST by the recorder: 4 messages (/a 4)' in text and 'repaired: ' in text
+
+
+def test_gaps_on_a_latest_only_topic_are_superseded_not_lost():
+    from collab_tools.core.recording_loss import LossLedger
+    ledger = LossLedger()
+    ledger.add_topic('/state', latest_only=True)
+    ledger.add_topic('/events')
+    for number in (1, 2, 5):   # 3 and 4 replaced by the publisher (latched, depth 1) / lost in transit
+        ledger.received('/state', number)
+        ledger.received('/events', number)
+    assert ledger.topics['/state'].superseded == 2 and ledger.topics['/state'].lost == 0
+    assert ledger.topics['/events'].gaps == 2 and ledger.topics['/events'].lost == 2
+    assert ledger.lossy_topics() == {'/events': 2}

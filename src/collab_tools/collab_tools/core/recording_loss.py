@@ -81,6 +81,7 @@ class TopicCounts:
     write_failed: int = 0
     drained: int = 0
     drain_left: int = 0
+    superseded: int = 0   # gaps on a latched depth-1 topic: the publisher replaced them itself
 
     @property
     def lost(self) -> int:
@@ -94,16 +95,25 @@ class LossLedger:
         self.topics: dict[str, TopicCounts] = {}
         self._sequences: dict[str, SequenceGaps] = {}
         self._received_at_stop: dict[str, int] = {}
+        self._latest_only: set[str] = set()
 
-    def add_topic(self, topic: str) -> None:
+    def add_topic(self, topic: str, latest_only: bool = False) -> None:
+        """latest_only: every publisher keeps only its newest sample (latched, depth 1), so a sample
+        it replaced before the recorder took it is superseded by its own contract, not lost."""
         self.topics.setdefault(topic, TopicCounts())
         self._sequences.setdefault(topic, SequenceGaps())
+        if latest_only:
+            self._latest_only.add(topic)
 
     def received(self, topic: str, sequence_number: int | None, publishers: int = 1) -> None:
         counts = self.topics[topic]
         counts.received += 1
         if sequence_number:  # 0 / None: the rmw does not number its samples
-            counts.gaps += self._sequences[topic].observe(int(sequence_number), publishers)
+            missed = self._sequences[topic].observe(int(sequence_number), publishers)
+            if topic in self._latest_only:
+                counts.superseded += missed
+            else:
+                counts.gaps += missed
 
     def drain_started(self) -> None:
         self._received_at_stop = {topic: c.received for topic, c in self.topics.items()}
