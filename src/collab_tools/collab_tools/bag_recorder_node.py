@@ -176,8 +176,8 @@ class BagRecorder(Node):
                 self.type_names.add(type_name)
             self.writer.add_topic(topic, type_name, [QosSpec.from_profile(q) for q in offered],
                                   type_hash=next(iter(hashes), None))
-            self.loss.add_topic(topic, latest_only=all(q.history == HistoryPolicy.KEEP_LAST and q.depth == 1 and
-                                                       q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered))
+            # Discovery does not carry a writer's depth: transient local is ROS's "latched" state.
+            self.loss.add_topic(topic, latest_only=all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered))
             self.publisher_counts[topic] = len(publishers)
             depth = queue_depth(self.rates.get(topic, 0.0), self.queue_seconds, self.queue_depth, QUEUE_DEPTH_MAX)
             events = SubscriptionEventCallbacks(
