@@ -52,6 +52,7 @@ from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .queued_messages import count_published_before, take_queued
 from .ros_interfaces import import_interface
+from .topic_discovery import DiscoveryTimer, topic_names_problem
 
 EXIT_UNRECORDED = 1
 QUEUE_DEPTH_MAX = 100_000
@@ -79,8 +80,8 @@ class BagRecorder(Node):
         super().__init__('bag_recorder')
         self.params = NodeParameters(self)
         # Topic names are checked the way this node will resolve them (rclpy's rules, its namespace).
-        schema = RECORDER_SETTINGS.replaced('topics', check=self._topics_problem)
-        values = self.params.declare_schema(schema, on_change={'discovery_period': self._set_discovery_period})
+        schema = RECORDER_SETTINGS.replaced('topics', check=lambda topics: topic_names_problem(self, topics))
+        values = self.params.declare_schema(schema, on_change={'discovery_period': lambda p: self.discovery.set_period(p)})
         output, topics, exclude = values['output'], values['topics'], values['exclude']
         period, preset = values['discovery_period'], values['storage_preset']
         self.topics = [self.resolve_topic_name(t) for t in topics if t]
@@ -109,28 +110,11 @@ class BagRecorder(Node):
         self.flush_timer = self.create_timer(values['chunk_flush_period'], self._flush,
                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.subscriptions_by_topic = {}
-        self.discovery_timer = None
-        self._set_discovery_period(period)
+        self.discovery = DiscoveryTimer(self, self._discover, period)
         self.get_logger().info(
             f'recording {"topics " + ", ".join(self.topics) if self.topics else "all topics"} '
             f'to {output} (storage preset {preset})')
         self._discover()
-
-    def _topics_problem(self, topics: list[str]) -> str | None:
-        for topic in topics:
-            if topic:
-                try:
-                    self.resolve_topic_name(topic)
-                except Exception as error:  # rclpy's InvalidTopicNameException and kin
-                    return f'invalid topic name {topic!r} ({error})'
-        return None
-
-    def _set_discovery_period(self, period: float) -> None:
-        if self.discovery_timer is not None:
-            self.destroy_timer(self.discovery_timer)
-        # Discovery runs on the wall clock: it must not stall while simulated time is paused.
-        self.discovery_timer = self.create_timer(period, self._discover,
-                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _wanted(self, topic: str) -> bool:
         if self.topics:
@@ -218,7 +202,7 @@ class BagRecorder(Node):
 
     def drain(self, executor, stop_ns: int) -> None:
         """After SIGINT/SIGTERM (node_support.run drain_on_stop): take what the queues hold (module docstring)."""
-        self.destroy_timer(self.discovery_timer)  # no new topic from now on
+        self.discovery.stop()  # no new topic from now on
         self.loss.drain_started()
         self._drain = rule = DrainRule(self.drain_quiet_period, self.drain_timeout, time.monotonic())
         self._stop_ns = stop_ns

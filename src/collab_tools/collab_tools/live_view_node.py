@@ -22,6 +22,7 @@ from .core.live_view import (LIVE_VIEW_SETTINGS, MESSAGE_ENCODING, SCHEMA_ENCODI
 from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .ros_interfaces import import_interface
+from .topic_discovery import DiscoveryTimer, topic_names_problem
 
 #: Wall seconds between the simulated times sent to the app.
 TIME_PERIOD = 0.2
@@ -47,8 +48,8 @@ class LiveView(Node):
     def __init__(self):
         super().__init__('live_view')
         self.params = NodeParameters(self)
-        schema = LIVE_VIEW_SETTINGS.replaced('topics', check=self._topics_problem)
-        values = self.params.declare_schema(schema, on_change={'discovery_period': self._set_discovery_period})
+        schema = LIVE_VIEW_SETTINGS.replaced('topics', check=lambda topics: topic_names_problem(self, topics))
+        values = self.params.declare_schema(schema, on_change={'discovery_period': lambda p: self.discovery.set_period(p)})
         self.selection = TopicSelection(tuple(self.resolve_topic_name(t) for t in values['topics'] if t),
                                         tuple(values['exclude']))
         self.queue_depth = values['queue_depth']
@@ -69,27 +70,11 @@ class LiveView(Node):
         self.port = self.server.port
         self.get_logger().info(f'Foxglove WebSocket server on {values["host"]}:{self.port}; '
                                + connect_hint(values['host'], self.port))
-        self.discovery_timer = None
-        self._set_discovery_period(values['discovery_period'])
+        self.discovery = DiscoveryTimer(self, self._discover, values['discovery_period'])
         if self.sim_time:  # the app's clock follows the simulation (the Time capability)
             self.create_timer(TIME_PERIOD, lambda: self.server.broadcast_time(self.get_clock().now().nanoseconds),
                               clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._discover()
-
-    def _topics_problem(self, topics: list[str]) -> str | None:
-        for topic in topics:
-            if topic:
-                try:
-                    self.resolve_topic_name(topic)
-                except Exception as error:  # rclpy's InvalidTopicNameException and kin
-                    return f'invalid topic name {topic!r} ({error})'
-        return None
-
-    def _set_discovery_period(self, period: float) -> None:
-        if self.discovery_timer is not None:
-            self.destroy_timer(self.discovery_timer)
-        # Wall clock: discovery must go on while simulated time is paused.
-        self.discovery_timer = self.create_timer(period, self._discover, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- topics -> channels --------------------------------------------------------------------------
     def _discover(self) -> None:
