@@ -73,8 +73,10 @@ def test_a_foxglove_client_watches_a_coalition_form(session, port, config_dir):
             return any(m.ns == 'helps' for array in arrays for m in array.markers)
         assert client.pump_until(helper_line_seen, 45.0), 'no marker of the helper -> leader line arrived'
 
+        # The status is latched and published on change, so it may come after the markers (CI).
+        assert client.pump_until(lambda: client.payloads(STATUS_TOPIC), 20.0), 'no status arrived'
         statuses = [deserialize_message(p, AgentStatus) for p in client.payloads(STATUS_TOPIC)]
-        assert statuses and all(s.robot == LEADER for s in statuses)
+        assert all(s.robot == LEADER for s in statuses)
         assert client.pump_until(lambda: any(
             deserialize_message(p, AgentStatus).state == AgentStatus.COMMITTED
             for p in client.payloads(STATUS_TOPIC)), 20.0)

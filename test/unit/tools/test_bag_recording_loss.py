@@ -200,3 +200,19 @@ def test_gaps_on_a_latest_only_topic_are_superseded_not_lost():
     assert ledger.topics['/state'].superseded == 2 and ledger.topics['/state'].lost == 0
     assert ledger.topics['/events'].gaps == 2 and ledger.topics['/events'].lost == 2
     assert ledger.lossy_topics() == {'/events': 2}
+
+
+def test_message_lost_events_on_a_latest_only_topic_are_superseded_not_lost():
+    # A late-joining recorder on a latched depth-1 topic gets a DDS GAP for the samples the writer
+    # already replaced, and Fast DDS raises message_lost for it (seen in CI on /robot_1/coalition).
+    from collab_tools.core.recording_loss import LossLedger
+    ledger = LossLedger()
+    ledger.add_topic('/state', latest_only=True)
+    ledger.add_topic('/events')
+    for topic in ('/state', '/events'):
+        ledger.reported_lost(topic, 1)
+        ledger.reported_lost(topic, 3)   # running totals, not increments
+        ledger.reported_lost(topic, 3)
+    assert ledger.topics['/state'].superseded == 3 and ledger.topics['/state'].lost == 0
+    assert ledger.topics['/events'].reported_lost == 3 and ledger.topics['/events'].lost == 3
+    assert ledger.lossy_topics() == {'/events': 3}

@@ -81,7 +81,7 @@ class TopicCounts:
     write_failed: int = 0
     drained: int = 0
     drain_left: int = 0
-    superseded: int = 0   # gaps on a latched depth-1 topic: the publisher replaced them itself
+    superseded: int = 0   # gaps and message_lost on a latched depth-1 topic: the publisher replaced them itself
 
     @property
     def lost(self) -> int:
@@ -96,6 +96,7 @@ class LossLedger:
         self._sequences: dict[str, SequenceGaps] = {}
         self._received_at_stop: dict[str, int] = {}
         self._latest_only: set[str] = set()
+        self._reported_superseded: dict[str, int] = {}  # latched topics: message_lost totals seen
 
     def add_topic(self, topic: str, latest_only: bool = False) -> None:
         """latest_only: every publisher keeps only its newest sample (latched, depth 1), so a sample
@@ -134,8 +135,19 @@ class LossLedger:
         self.topics[topic].write_failed += 1
 
     def reported_lost(self, topic: str, total: int) -> None:
-        """The middleware's running total of lost messages for the topic (a message_lost event)."""
-        self.topics[topic].reported_lost = max(self.topics[topic].reported_lost, int(total))
+        """The middleware's running total of lost messages for the topic (a message_lost event).
+
+        On a latched depth-1 topic the event means what a gap means there: a reliable writer
+        announced (DDS GAP) samples its one-sample history had already replaced, e.g. the ones
+        published before a late-joining recorder matched. Superseded, not lost."""
+        counts = self.topics[topic]
+        if topic in self._latest_only:
+            new = int(total) - self._reported_superseded.get(topic, 0)
+            if new > 0:
+                counts.superseded += new
+                self._reported_superseded[topic] = int(total)
+            return
+        counts.reported_lost = max(counts.reported_lost, int(total))
 
     @property
     def total_lost(self) -> int:
