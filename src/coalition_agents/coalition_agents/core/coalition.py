@@ -9,6 +9,7 @@ variants and their reply spaces) and the feasible LCSs given what it sensed and 
 """
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Mapping, Sequence
 
@@ -62,15 +63,94 @@ class SearchPlan:
 
 class _Candidates:
     """A leaf's candidates (instance, offer or None) with a hash index per variable position of
-    its label: entity -> the candidates with that entity there (built when first needed)."""
+    its label: entity -> the candidates with that entity there (built when first needed).
 
-    __slots__ = ('label', 'entries', 'has_offers', '_index')
+    Never changed once built: :meth:`extended` makes the next one (sharing what did not change)."""
 
-    def __init__(self, label: InformationInstance, entries: list[tuple[InformationInstance, InformationOffer | None]]):
+    __slots__ = ('label', 'entries', 'has_offers', '_index', '_positions')
+
+    def __init__(self, label: InformationInstance, entries: list[tuple[InformationInstance, InformationOffer | None]],
+                 positions: dict[InformationInstance, int] | None = None):
         self.label = label
         self.entries = entries
         self.has_offers = any(offer is not None for _, offer in entries)
         self._index: dict[int, dict[Entity, list]] | None = None
+        #: cheapest-offer candidates: instance -> its entry's position (what :meth:`extended` updates)
+        self._positions = positions
+
+    @classmethod
+    def of_offers(cls, label: InformationInstance, offers: Sequence[InformationOffer],
+                  cheapest_offers: bool) -> '_Candidates':
+        """The candidates of a CS leaf: every offer in arrival order, or (``cheapest_offers``) the
+        cheapest offer per instance, at the place of the instance's first offer."""
+        if not cheapest_offers:
+            return cls(label, [(offer.instance, offer) for offer in offers])
+        candidates = cls(label, [], {})
+        candidates._take(offers)
+        return candidates
+
+    def extended(self, previous: Sequence[InformationOffer], offers: Sequence[InformationOffer],
+                 cheapest_offers: bool) -> '_Candidates | None':
+        """The candidates of ``offers`` if it is ``previous`` (what these were built from) with
+        offers appended -- how an offer book lists a new provider's offer -- else None (an offer
+        was replaced in place: build again). Only the appended offers are looked at: a label
+        that gathers hundreds of offers one batch at a time is not rebuilt at every batch."""
+        known = len(previous)
+        if len(offers) < known or not all(map(operator.is_, offers[:known], previous)):
+            return None
+        added = offers[known:]
+        if not cheapest_offers:
+            fresh = [(offer.instance, offer) for offer in added]
+            following = _Candidates(self.label, self.entries + fresh)
+            following._index = self._indexed_with(fresh)
+            return following
+        following = _Candidates(self.label, list(self.entries), dict(self._positions or {}))
+        following._index = None if self._index is None else {position: dict(table) for position, table in
+                                                             self._index.items()}
+        following._take(added)
+        return following
+
+    def _take(self, offers: Iterable[InformationOffer]) -> None:
+        """Cheapest-offer candidates: add ``offers`` in place (only while this object is being built)."""
+        entries, positions = self.entries, self._positions
+        assert positions is not None
+        for offer in offers:
+            place = positions.get(offer.instance)
+            if place is None:
+                positions[offer.instance] = len(entries)
+                entries.append((offer.instance, offer))
+                self._index_add(entries[-1])
+                continue
+            kept = entries[place][1]
+            if (offer.cost, offer.provider) < (kept.cost, kept.provider):  # type: ignore[union-attr]
+                old, entries[place] = entries[place], (offer.instance, offer)
+                self._index_replace(old, entries[place])
+        self.has_offers = self.has_offers or bool(entries)
+
+    def _indexed_with(self, fresh: list) -> dict[int, dict[Entity, list]] | None:
+        """This index with ``fresh`` candidates appended (new lists where they change)."""
+        if self._index is None:
+            return None
+        index = {}
+        for position, table in self._index.items():
+            table = dict(table)
+            for candidate in fresh:
+                entity = candidate[0].referents[position]
+                table[entity] = table.get(entity, []) + [candidate]
+            index[position] = table
+        return index
+
+    def _index_add(self, candidate) -> None:
+        if self._index is not None:
+            for position, table in self._index.items():
+                entity = candidate[0].referents[position]
+                table[entity] = table.get(entity, []) + [candidate]
+
+    def _index_replace(self, old, new) -> None:
+        if self._index is not None:
+            for position, table in self._index.items():
+                entity = new[0].referents[position]
+                table[entity] = [new if candidate is old else candidate for candidate in table[entity]]
 
     def consistent(self, binding: Mapping[Variable, Entity]) -> list:
         """The candidates that can agree with ``binding`` (narrowed by the most selective bound
@@ -256,8 +336,11 @@ class RobotReasoner:
             if entry is not None and entry[0] is source:
                 candidates = entry[1]
             else:
-                candidates = _Candidates(label, self._candidates(leaf, label, requested, sensed, offers,
-                                                                 cheapest_offers))
+                candidates = None
+                if kind is SchemaKind.CS and entry is not None and entry[0] is not None and source is not None:
+                    candidates = entry[1].extended(entry[0], source, cheapest_offers)
+                if candidates is None:
+                    candidates = self._candidates(leaf, label, requested, sensed, offers, cheapest_offers)
                 cache[key] = (source, candidates)
             if not candidates.entries:
                 return
@@ -300,23 +383,15 @@ class RobotReasoner:
 
     @staticmethod
     def _candidates(leaf: SolutionStep, label: InformationInstance, requested: InformationInstance | None, sensed,
-                    offers, cheapest_offers: bool) -> list[tuple[InformationInstance, InformationOffer | None]]:
+                    offers, cheapest_offers: bool) -> _Candidates:
         if leaf.kind is SchemaKind.PRIOR:
-            return [(label, None)] if label.is_fully_instantiated else []
+            return _Candidates(label, [(label, None)] if label.is_fully_instantiated else [])
         if leaf.kind is SchemaKind.ES_EPS:
             readings = dict.fromkeys(sensed.get(leaf.schema, ()))
-            return [(instance, None) for instance in readings if answers_request(instance, label)]
+            return _Candidates(label, [(instance, None) for instance in readings if answers_request(instance, label)])
         # The leaf's label is the request label up to renaming, so every offer received for the
         # request (checked on receipt) fits the leaf; offers keep arrival order.
-        matching = list(offers.get(requested, ()))
-        if cheapest_offers:
-            best: dict[InformationInstance, InformationOffer] = {}
-            for offer in matching:
-                kept = best.get(offer.instance)
-                if kept is None or (offer.cost, offer.provider) < (kept.cost, kept.provider):
-                    best[offer.instance] = offer
-            matching = list(best.values())
-        return [(offer.instance, offer) for offer in matching]
+        return _Candidates.of_offers(label, offers.get(requested, ()), cheapest_offers)
 
     def _delta_join(self, solution: PotentialSolution, slots: list['_Slot'], fresh: set[int], reply: bool,
                     start: Mapping[Variable, Entity], affordable) -> Iterator[LocalCoalitionSolution]:
