@@ -27,7 +27,7 @@ from typing import Any, Callable
 from ..core.transport.batch_columns import encode_batch
 from ..core.transport.batching import Batch
 
-#: the message's fields after header, sender, recipient and sequence, in order, with their element type
+#: the message's fields after header, sender, recipient, sequence and session, in order, with their element type
 #: (Q uint64, B uint8, d float64, s string)
 ARRAY_FIELDS = (('acked_ids', 'Q'), ('kinds', 'B'), ('message_ids', 'Q'), ('conversation_ids', 'Q'),
                 ('in_reply_to', 'Q'), ('costs', 'd'), ('hold_seconds', 'd'), ('coalition_ids', 's'),
@@ -56,7 +56,7 @@ def _string(out: bytearray, text: str) -> None:
 
 def encode_cdr(columns: dict[str, Any], stamp_ns: int = 0) -> bytearray:
     """The serialized AgentMessageBatch of ``columns`` (encode_batch's dict: sender, recipient,
-    sequence, acked_ids and the columns), stamped ``stamp_ns`` (:func:`set_stamp` changes it later)."""
+    sequence, session, acked_ids and the columns), stamped ``stamp_ns`` (:func:`set_stamp` changes it later)."""
     out = bytearray(CDR_LE)
     out += _STAMP.pack(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000)
     _string(out, '')  # header.frame_id
@@ -64,6 +64,7 @@ def encode_cdr(columns: dict[str, Any], stamp_ns: int = 0) -> bytearray:
     _string(out, columns['recipient'])
     _pad(out, 8)
     out += _U64.pack(columns['sequence'])
+    out += _U64.pack(columns.get('session', 0))
     for name, kind in ARRAY_FIELDS:
         values = columns[name]
         count = len(values)
@@ -162,8 +163,9 @@ def decode_cdr(data: bytes) -> dict[str, Any]:
         result: dict[str, Any] = {'stamp_ns': sec * 1_000_000_000 + nanosec, 'sender': reader.string(),
                                   'recipient': reader.string()}
         reader.align(8)
-        result['sequence'] = _U64.unpack_from(data, reader.offset)[0]
-        reader.offset += 8
+        result['sequence'], result['session'] = _U64.unpack_from(data, reader.offset)[0], \
+            _U64.unpack_from(data, reader.offset + 8)[0]
+        reader.offset += 16
         for name, kind in ARRAY_FIELDS:
             result[name] = [reader.string() for _ in range(reader.count())] if kind == 's' else reader.numbers(kind)
     except (struct.error, UnicodeDecodeError) as exc:
@@ -173,7 +175,8 @@ def decode_cdr(data: bytes) -> dict[str, Any]:
 
 #: batches :class:`WireCheck` compares (every field used, empty and non-empty arrays, odd lengths)
 SAMPLES = (
-    {'sender': 'robot_12', 'recipient': 'robot_3', 'sequence': 7, 'acked_ids': [1795681945905458, 3],
+    {'sender': 'robot_12', 'recipient': 'robot_3', 'sequence': 7, 'session': 8_446_744_073_709_551_615,
+     'acked_ids': [1795681945905458, 3],
      'kinds': [1, 2, 8], 'message_ids': [11, 12, 13], 'conversation_ids': [0, 5, 0], 'in_reply_to': [0, 9, 0],
      'costs': [0.0, 17.5, 0.0], 'hold_seconds': [0.0, 0.0, 0.0], 'coalition_ids': ['', '', 'robot_12/4'],
      'reasons': ['', '', ''], 'information_counts': [2, 2, 1], 'chain_lengths': [1, 0, 0], 'member_counts': [0, 3, 0],
@@ -181,7 +184,7 @@ SAMPLES = (
      'referent_counts': [1, 2, 2, 1, 2], 'referents': ['X', 'robot_12', 'X', 'robot_12', 'X', 'robot_3', 'é', 'Y'],
      'chain_requesters': ['robot_13'], 'members': ['robot_12', 'robot_3', 'robot_1'], 'value_names': ['x', 'y', 'yaw'],
      'values': [1.5, -2.25, 3.0]},
-    {'sender': 'r', 'recipient': 'ab', 'sequence': 2 ** 64 - 1, **{name: [] for name, _ in ARRAY_FIELDS}},
+    {'sender': 'r', 'recipient': 'ab', 'sequence': 2 ** 64 - 1, 'session': 0, **{name: [] for name, _ in ARRAY_FIELDS}},
 )
 
 

@@ -93,7 +93,8 @@ def batch_to_ros(batch: Batch) -> AgentMessageBatch:
 def batch_from_ros(msg: AgentMessageBatch) -> dict:
     """The dict form :func:`~..core.transport.batch_columns.decode_columns` reads."""
     data = {name: getattr(msg, name) for name in COLUMNS}
-    data.update(sender=msg.sender, recipient=msg.recipient, sequence=int(msg.sequence), acked_ids=msg.acked_ids)
+    data.update(sender=msg.sender, recipient=msg.recipient, sequence=int(msg.sequence), session=int(msg.session),
+                acked_ids=msg.acked_ids)
     return data
 
 

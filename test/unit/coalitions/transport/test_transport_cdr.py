@@ -21,7 +21,7 @@ STAMP = 1_795_681_953_504_594_834
 
 def random_columns(rng: random.Random) -> dict:
     columns = {'sender': rng.choice(['robot_1', 'r', 'robot_12']), 'recipient': rng.choice(['robot_13', '', 'ab']),
-               'sequence': rng.randrange(2 ** 64)}
+               'sequence': rng.randrange(2 ** 64), 'session': rng.choice([0, rng.randrange(2 ** 64)])}
     for name, kind in ARRAY_FIELDS:
         count = rng.choice([0, 0, 1, 2, 3, 5])
         if kind == 'B':
@@ -67,10 +67,10 @@ def test_a_stamp_set_later_is_the_header_stamp():
 
 
 def test_every_kind_of_message_survives_the_bytes(library, codec):  # noqa: F811
-    batch = Batch('robot_2', 'robot_1', 3, tuple(every_kind(library)), (101, 102))
+    batch = Batch('robot_2', 'robot_1', 3, tuple(every_kind(library)), (101, 102), session=2 ** 63 + 5)
     fields = decode_cdr(bytes(batch_to_cdr(batch)))
     decoded = decode_columns(codec, fields, 'robot_1')
-    assert decoded.rejected == [] and decoded.sequence == 3
+    assert decoded.rejected == [] and decoded.sequence == 3 and decoded.session == 2 ** 63 + 5
     assert [m.in_reply_to for m in decoded.messages if m.kind is MessageKind.ACK] == [101, 102]
     assert [m for m in decoded.messages if m.kind is not MessageKind.ACK] == list(batch.messages)
     assert {key: fields[key] for key in encode_batch(batch)} == encode_batch(batch)

@@ -48,11 +48,11 @@ def _information(columns: dict, instance) -> None:
 
 
 def encode_batch(batch: Batch) -> dict[str, Any]:
-    """The columns of ``batch`` (plus sender, recipient, sequence, acked_ids) as lists."""
+    """The columns of ``batch`` (plus sender, recipient, sequence, session, acked_ids) as lists."""
     columns: dict[str, Any] = {name: [] for name in COLUMNS}
     for message in batch.messages:
         _encode_message(columns, message)
-    columns.update(sender=batch.sender, recipient=batch.recipient, sequence=batch.sequence,
+    columns.update(sender=batch.sender, recipient=batch.recipient, sequence=batch.sequence, session=batch.session,
                    acked_ids=list(batch.acked_ids))
     return columns
 
@@ -188,6 +188,7 @@ def decode_columns(codec: ChannelCodec, data: Mapping[str, Any], robot: str, pat
     check_columns(data, path)
     messages = list(_message_dicts(data, data.get('sender'), data.get('recipient'), path))
     return decode_batch(codec, {**{key: data.get(key) for key in ('sender', 'recipient', 'sequence')},
+                                'session': data.get('session', 0),
                                 'acked_ids': [int(acked) for acked in data.get('acked_ids', ())],
                                 'messages': messages}, robot, _reader, path)
 

@@ -72,6 +72,8 @@ class Batch:
     sequence: int
     messages: tuple[ChannelMessage, ...]
     acked_ids: tuple[int, ...] = ()
+    #: the sender's session (:mod:`.liveness`; 0 = none)
+    session: int = 0
 
     @property
     def logical_count(self) -> int:
@@ -92,6 +94,7 @@ class OutboxStats:
     messages: int = 0          # logical messages (not ACKs) in them
     acks: int = 0              # ACKs piggybacked or in ack-only batches
     ack_only_batches: int = 0  # batches that carried only ACKs
+    heartbeats: int = 0        # empty batches (:meth:`Outbox.heartbeat`)
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -100,13 +103,14 @@ class OutboxStats:
 class Outbox:
     """Per-recipient buffers of one robot's outgoing messages (see the module docstring)."""
 
-    def __init__(self, robot: str, ack_delay_s: float = 0.01):
+    def __init__(self, robot: str, ack_delay_s: float = 0.01, session: int = 0):
         if not isinstance(robot, str) or not robot:
             raise ConfigError(f'robot: must be a robot name (got {robot!r})')
         if isinstance(ack_delay_s, bool) or not isinstance(ack_delay_s, (int, float)) or not ack_delay_s >= 0:
             raise ConfigError(f'ack_delay_s: must be a number >= 0 (got {ack_delay_s!r})')
         self.robot = robot
         self.ack_delay_s = float(ack_delay_s)
+        self.session = session
         self.stats = OutboxStats()
         self._buffers: dict[str, _Buffer] = {}
         self._sequence: dict[str, int] = {}
@@ -147,16 +151,25 @@ class Outbox:
             if not buffer.messages and (buffer.acks_since is None or now - buffer.acks_since < self.ack_delay_s):
                 continue
             del self._buffers[recipient]
-            sequence = self._sequence.get(recipient, 0) + 1
-            self._sequence[recipient] = sequence
-            batch = Batch(self.robot, recipient, sequence, tuple(processing_order(buffer.messages)),
-                          tuple(dict.fromkeys(buffer.acked_ids)))
-            self.stats.batches += 1
-            self.stats.messages += len(batch.messages)
-            self.stats.acks += len(batch.acked_ids)
-            self.stats.ack_only_batches += not batch.messages
-            batches.append(batch)
+            batches.append(self._batch(recipient, buffer))
         return batches
+
+    def heartbeat(self, recipient: str) -> Batch:
+        """A batch for ``recipient`` now, whatever waits for it: what is buffered, else nothing (an
+        empty batch: a heartbeat, :mod:`.liveness`)."""
+        return self._batch(recipient, self._buffers.pop(recipient, None) or _Buffer())
+
+    def _batch(self, recipient: str, buffer: _Buffer) -> Batch:
+        sequence = self._sequence.get(recipient, 0) + 1
+        self._sequence[recipient] = sequence
+        batch = Batch(self.robot, recipient, sequence, tuple(processing_order(buffer.messages)),
+                      tuple(dict.fromkeys(buffer.acked_ids)), self.session)
+        self.stats.batches += 1
+        self.stats.messages += len(batch.messages)
+        self.stats.acks += len(batch.acked_ids)
+        self.stats.ack_only_batches += bool(batch.acked_ids) and not batch.messages
+        self.stats.heartbeats += not batch.acked_ids and not batch.messages
+        return batch
 
 
 Item = TypeVar('Item')
@@ -202,6 +215,7 @@ class DecodedBatch:
     sequence: int
     messages: list[ChannelMessage]
     rejected: list[tuple[int, str]]
+    session: int = 0
 
 
 def local_messages(batch: Batch) -> list[ChannelMessage]:
@@ -232,11 +246,15 @@ def decode_batch(codec: ChannelCodec, data: Any, robot: str,
     sequence = data['sequence']
     if isinstance(sequence, bool) or not isinstance(sequence, int) or not 1 <= sequence <= MAX_MESSAGE_ID:
         raise RequestError(f'{path}.sequence: must be an integer in [1, 2^64 - 1] (got {sequence!r})')
+    session = data.get('session', 0)
+    if isinstance(session, bool) or not isinstance(session, int) or not 0 <= session <= MAX_MESSAGE_ID:
+        raise RequestError(f'{path}.session: must be an integer in [0, 2^64 - 1] (got {session!r})')
     acked = list(data['acked_ids'])
     for index, acked_id in enumerate(acked):
         if isinstance(acked_id, bool) or not isinstance(acked_id, int) or not 1 <= acked_id <= MAX_MESSAGE_ID:
             raise RequestError(f'{path}.acked_ids[{index}]: must be a message id in [1, 2^64 - 1] (got {acked_id!r})')
-    decoded = DecodedBatch(sender, robot, sequence, [piggybacked_ack(sender, robot, acked_id) for acked_id in acked], [])
+    decoded = DecodedBatch(sender, robot, sequence, [piggybacked_ack(sender, robot, acked_id) for acked_id in acked], [],
+                           session)
     messages = []
     for index, item in enumerate(data['messages']):
         item_path = f'{path}.messages[{index}]'
