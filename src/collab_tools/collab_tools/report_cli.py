@@ -30,7 +30,7 @@ from pathlib import Path
 
 from .core.bag_analysis import BagSummary, find_bags, format_summary, summarize_bag
 from .core.report_plots import write_plots
-from .core.run_outcome import Outcome, bag_outcomes, run_outcomes
+from .core.run_outcome import Outcome, bag_outcomes, markdown_escape, outcome_markdown, run_outcomes
 from .core.scene_layout import scene_of_bag
 
 EXIT_OK = 0
@@ -99,16 +99,8 @@ def _bag_entry(summary: BagSummary, label: str, plots: list[Path], out_dir: Path
     }
 
 
-def _md_escape(text: str) -> str:
-    return text.replace('|', '\\|')
-
-
-def _outcome_lines(outcomes: list[dict]) -> list[str]:
-    return [f'- **{_md_escape(o["subject"])}: {_md_escape(o["status"])}**'
-            + (f' — {_md_escape(o["summary"])}' if o.get('summary') else '')
-            + (f' (failed: {", ".join(k for k, v in o.get("checks", {}).items() if v is False)})'
-               if any(v is False for v in o.get('checks', {}).values()) else '')
-            for o in outcomes]
+_md_escape = markdown_escape
+_outcome_lines = outcome_markdown   # the same lines open every experiment's own report
 
 
 def _markdown(report: dict) -> str:

@@ -140,7 +140,8 @@ def test_table4_team_and_outputs(table4):
                                                                                         ('large', 3, 0.1)]
     for problem in results['problems']:
         assert problem['agent_types'].count('small') == 3 and problem['agent_types'].count('large') == 3
-    assert (run_dir / 'table4.md').read_text().startswith('# Table IV')
+    report = (run_dir / 'table4.md').read_text().splitlines()
+    assert report[0].startswith('- **roles-table4: ') and report[2].startswith('# Table IV')   # outcome first
     assert (run_dir / 'table4_assignments.png').read_bytes()[:4] == b'\x89PNG'
     assert sum(1 for line in lines if line.startswith('[roles-table4 ')) == 2
 

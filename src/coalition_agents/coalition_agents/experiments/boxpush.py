@@ -43,10 +43,11 @@ from pathlib import Path
 
 import yaml
 from collab_tools.core.bag_analysis import read_messages
+from collab_tools.core.report_plots import draw_scene, frame_scene, robot_colours
+from collab_tools.core.scene_layout import SceneLayout
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 from collab_tools.experiments.checkpoint import fresh_step_dir
-from collab_tools.experiments.plots import plt
 from collab_tools.orchestration.experiment import run_experiment
 
 from ..core.agent_state import AgentState
@@ -120,25 +121,34 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
     }
 
 
-def plot_run(run: dict, path: Path, title: str) -> None:
-    """Every body's ground-truth trajectory (the box thick), with the two goals."""
-    fig, ax = plt.subplots(figsize=(8, 6.5))
-    for name, points in sorted(run['trajectories'].items()):
+def plot_run(run: dict, path: Path, title: str, scene: SceneLayout | None = None) -> None:
+    """Every body's ground-truth trajectory over the scene (walls, obstacles, the box where it started),
+    as the report's trajectory plots draw it: each robot in its simulation colour, the box's path dashed
+    in the box's colour; o start, s end, and the two goals (``scene``: :func:`collab_tools.experiments.plots.bag_scene`)."""
+    fig, ax = plots.figure(8.5, 7.0)
+    draw_scene(ax, scene)
+    paths = {name: points for name, points in run['trajectories'].items() if points}
+    colours = robot_colours([name for name in paths if name != BOX], scene)
+    box_colour = next((b.color for b in (scene.movable_boxes if scene else ()) if b.name == BOX), 'gray')
+    for name, points in sorted(paths.items()):
         xs, ys = [p[1] for p in points], [p[2] for p in points]
-        style = dict(linewidth=3, color='purple') if name == BOX else dict(linewidth=1.5)
-        line, = ax.plot(xs, ys, label=name, **style)
-        ax.plot(xs[0], ys[0], 'o', color=line.get_color())
-        ax.plot(xs[-1], ys[-1], 's', color=line.get_color())
+        if name == BOX:
+            ax.plot(xs, ys, '--', color=box_colour, linewidth=2.5, label=f'{name} (pushed)', zorder=3)
+            continue
+        ax.plot(xs, ys, '-', color=colours[name], linewidth=1.5, label=name, zorder=3)
+        ax.plot(xs[0], ys[0], 'o', color=colours[name], markersize=7, zorder=4)
+        ax.plot(xs[-1], ys[-1], 's', color=colours[name], markersize=7, markeredgecolor='black', zorder=4)
     for key, marker in (('box', '*'), ('navigation', 'X')):
         goal = run[key]['goal']
-        ax.plot(goal[0], goal[1], marker, markersize=16, color='black', label=f'{key} goal')
-    ax.set_aspect('equal')
+        ax.plot(goal[0], goal[1], marker, markersize=16, color='black', label=f'{key} goal', zorder=5)
+    ax.plot([], [], 'o', color='gray', label='start')
+    ax.plot([], [], 's', color='gray', markeredgecolor='black', label='end')
+    frame_scene(ax, scene)
     ax.set_xlabel('x (m)')
     ax.set_ylabel('y (m)')
-    ax.set_title(title)
+    ax.set_title(title + ('' if scene else ' (scene unknown)'))
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc='best')
-    fig.tight_layout()
+    plots.legend_outside(ax, fontsize=8)
     plots.save(fig, path, dpi=120)
 
 
@@ -167,7 +177,8 @@ def run(request: ExperimentRequest) -> ExperimentResult:
             raise RuntimeError(f'{label}: no bag recorded ({result.message}); logs in {case_dir / "logs"}')
         run = read_run(result.bag, agents, ACCEPTANCE_TOLERANCE_M)
         run.update({'loss_probability': loss, 'condition_met': result.condition_met, 'session': result.message})
-        plot_run(run, case_dir / 'trajectories.png', f'coalition box pushing and navigation, loss {loss:g}')
+        plot_run(run, case_dir / 'trajectories.png', f'coalition box pushing and navigation, loss {loss:g}',
+                 plots.bag_scene(result.bag))
         log(f"[coalition-boxpush] {label}: box {run['box']['final_distance_m']} m from its goal "
             f"(completed {run['box']['completed']}), navigation {run['navigation']['final_distance_m']} m "
             f"(completed {run['navigation']['completed']}); time to form {run['time_to_form_s']}; "
@@ -184,11 +195,11 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                   'no_conflicts': all(not r['conflicts'] for r in runs)}
     passed = all(acceptance.values())
     table = summary_markdown(results)
-    (Path(run_dir) / 'summary.md').write_text(table)
     outcome = '; '.join(f"loss {r['loss_probability']:g}: box {r['box']['final_distance_m']} m, navigation "
                         f"{r['navigation']['final_distance_m']} m from the goal, {len(r['conflicts'])} conflicts"
                         for r in runs)
-    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results)
+    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results,
+                            report_file='summary.md')
 
 
 def summary_markdown(results: dict) -> str:

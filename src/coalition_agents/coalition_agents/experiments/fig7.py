@@ -154,7 +154,6 @@ def run_core(config_dir: Path, run_dir: Path, log: Log = print,
                                 for b in scenario.obstacles.boxes]
     run_dir.mkdir(parents=True, exist_ok=True)
     table = table5_markdown(results)
-    (run_dir / 'table5.md').write_text(table)
     plot_fig7(scenario, sensing, results, run_dir / 'fig7.png')
     acceptance = {'matches_paper': results['matches_paper']}
     outcome = (f'{len(table5)} initiators: ' + '; '.join(f'{e["robot"]} possible {e["possible"]}, executable '
@@ -162,7 +161,7 @@ def run_core(config_dir: Path, run_dir: Path, log: Log = print,
                + f'; paper match: {results["matches_paper"]}')
     log(f'[coalition-fig7] paper match: {results["matches_paper"]}')
     return ExperimentResult(passed=results['matches_paper'], outcome=outcome, report=table, acceptance=acceptance,
-                            data=results)
+                            data=results, report_file='table5.md')
 
 
 def table5_markdown(results: dict) -> str:

@@ -104,11 +104,11 @@ def run_sim(request: ExperimentRequest) -> ExperimentResult:
             f'{row["cost"]} (core: {row["core_members"] and ", ".join(row["core_members"])} {row["core_cost"]}); '
             f'found {row["found_s"]} s, formed {row["formed_s"]} s')
     table = fig7_sim_markdown(results, {**acceptance, 'passed': passed})
-    (run_dir / 'table5_sim.md').write_text(table)
     plot_fig7_sim(scenario, results, run_dir / 'fig7_sim.png')
     outcome = '; '.join(f'{r["robot"]}: {r["state"]} {"+".join(r["members"]) or "-"} (cost {r["cost"]})'
                         for r in sim['leaders'])
-    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results)
+    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results,
+                            report_file='table5_sim.md')
 
 
 def _write_core_results(request: ExperimentRequest, result: ExperimentResult, wall_s: float) -> None:

@@ -124,12 +124,12 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                'runs': rows}
     run_dir.mkdir(parents=True, exist_ok=True)
     table = fig9_markdown(results, {'passed': passed, **acceptance})
-    (run_dir / 'fig9.md').write_text(table)
     (run_dir / 'paper_notes.md').write_text(fig9_notes(results))
     plot_fig9(results, run_dir)
     outcome = '; '.join(f'{r["robots"]} robots: {r.get("state")}, found {r.get("time_s")} s, formed '
                         f'{r.get("formed_s")} s' for r in rows)
-    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results)
+    return ExperimentResult(passed=passed, outcome=outcome, report=table, acceptance=acceptance, data=results,
+                            report_file='fig9.md')
 
 
 def fig9_markdown(results: dict, acceptance: dict) -> str:

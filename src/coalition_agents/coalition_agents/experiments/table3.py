@@ -146,7 +146,6 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     }
     run_dir.mkdir(parents=True, exist_ok=True)
     table = table3_markdown(results)
-    (run_dir / 'table3.md').write_text(table)
     (run_dir / 'notes.md').write_text(table3_notes(results))
     plot_solution_space(space, run_dir / 'solution_space.png',
                         f'Solution space of MS {results["motor_schema"]} for {TABLE3_REQUIREMENT} '
@@ -155,7 +154,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                f'paper match: {matches_paper}')
     log(f'[coalition-table3] {outcome}')
     return ExperimentResult(passed=matches_paper, outcome=outcome, report=table, acceptance=acceptance,
-                            data=results)
+                            data=results, report_file='table3.md')
 
 
 def table3_markdown(results: dict) -> str:

@@ -41,6 +41,7 @@ __all__ = [
     'registered_plots',
     'register_plot',
     'draw_scene',
+    'frame_scene',
     'robot_colours',
     'unregister_plot',
     'write_plots',
@@ -179,6 +180,16 @@ def draw_scene(ax, layout: SceneLayout | None) -> None:
         ax.annotate(target.name, target.center, xytext=(4, 4), textcoords='offset points', fontsize=7, zorder=1)
 
 
+def frame_scene(ax, layout: SceneLayout | None) -> None:
+    """Equal aspect; the whole arena (walls included) in view when the scene gives its bounds."""
+    if layout is not None and layout.bounds is not None:
+        xmin, ymin, xmax, ymax = layout.bounds
+        margin = 0.1 + (layout.walls[0].size[1] if layout.walls else 0.0)
+        ax.set_xlim(xmin - margin, xmax + margin)
+        ax.set_ylim(ymin - margin, ymax + margin)
+    ax.set_aspect('equal', adjustable='box')
+
+
 def robot_colours(names, layout: SceneLayout | None) -> dict[str, tuple]:
     """Each robot's colour in the simulation (from the scenario), else one of matplotlib's cycle."""
     cycle = plt.rcParams['axes.prop_cycle'].by_key().get('color', ['C0'])
@@ -288,12 +299,7 @@ def plot_trajectories(bag: Path, summary: BagSummary, out_dir: Path) -> list[Pat
         ax.plot([], [], 's', color='gray', markeredgecolor='black', label='end')
         if goals:
             ax.plot([], [], '*', color='gray', markersize=12, markeredgecolor='black', label='formation target')
-        if layout is not None and layout.bounds is not None:
-            xmin, ymin, xmax, ymax = layout.bounds
-            margin = 0.1 + (layout.walls[0].size[1] if layout.walls else 0.0)
-            ax.set_xlim(xmin - margin, xmax + margin)
-            ax.set_ylim(ymin - margin, ymax + margin)
-        ax.set_aspect('equal', adjustable='box')
+        frame_scene(ax, layout)
         ax.set_title(f'Robot trajectories ({topic})' + ('' if layout else ' — scene unknown'))
         ax.set_xlabel('x [m]')
         ax.set_ylabel('y [m]')

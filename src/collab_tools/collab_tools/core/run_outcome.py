@@ -25,8 +25,8 @@ from .bag_types import normalize_type_name
 if TYPE_CHECKING:  # reading bags needs rosbags; registering a reader does not
     from .bag_analysis import BagSummary
 
-__all__ = ['OUTCOMES_FILE', 'Outcome', 'bag_outcomes', 'experiment_outcome', 'read_outcomes', 'register_outcome',
-           'run_outcomes', 'unregister_outcome', 'write_outcomes']
+__all__ = ['OUTCOMES_FILE', 'Outcome', 'bag_outcomes', 'experiment_outcome', 'markdown_escape', 'outcome_markdown',
+           'read_outcomes', 'register_outcome', 'run_outcomes', 'unregister_outcome', 'write_outcomes']
 
 #: A run directory's outcomes (scripts/demo writes one per demo).
 OUTCOMES_FILE = 'outcomes.json'
@@ -103,6 +103,24 @@ def experiment_outcome(document: Mapping[str, Any]) -> Outcome:
     passed = document.get('passed')
     return Outcome(str(document.get('experiment', 'experiment')), 'passed' if passed else 'FAILED',
                    str(document.get('outcome', '')), None if passed is None else bool(passed), {}, checks)
+
+
+def markdown_escape(text: str) -> str:
+    """``text`` safe inside a Markdown table cell or bold run (``|`` escaped)."""
+    return text.replace('|', '\\|')
+
+
+def outcome_markdown(outcomes) -> list[str]:
+    """One Markdown line per outcome (an :class:`Outcome` or its ``to_dict()``), as every report opens:
+    ``- **subject: status** — summary (failed: checks)``."""
+    lines = []
+    for outcome in outcomes:
+        o = outcome if isinstance(outcome, Outcome) else Outcome.from_dict(outcome)
+        failed = [name for name, ok in o.checks.items() if ok is False]
+        lines.append(f'- **{markdown_escape(o.subject)}: {markdown_escape(o.status)}**'
+                     + (f' — {markdown_escape(o.summary)}' if o.summary else '')
+                     + (f' (failed: {", ".join(failed)})' if failed else ''))
+    return lines
 
 
 def read_outcomes(path: Path) -> list[Outcome]:

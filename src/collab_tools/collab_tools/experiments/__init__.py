@@ -6,7 +6,8 @@ finds them through :data:`~.registry.EXPERIMENT_PACKAGES` and runs them the same
 
     run(request: ExperimentRequest) -> ExperimentResult
 
-``api`` defines those types and writes ``results.json`` (:func:`~.api.write_results`);
+``api`` defines those types and writes ``results.json`` and the experiment's report, outcome first
+(:func:`~.api.write_results`);
 ``sweep`` is an experiment's loop (:class:`~.sweep.Steps`, ``ExperimentRequest.progress``: each finished
 step checkpointed, skipped on ``--resume``) and runs a function over cases that way; ``progress`` draws
 the bar (tqdm) or plain lines with elapsed time and ETA; ``checkpoint`` keeps ``RUN_DIR/run.json`` and

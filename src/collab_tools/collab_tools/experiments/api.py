@@ -13,6 +13,10 @@ object whose first keys are the same for every experiment::
      "options": {"mode": "core", ...}, "seed": 0, "wall_s": 12.3,
      "acceptance": {"passed": true, ...checks},
      ...the experiment's own keys (cases, rows, runs, ...)}
+
+The experiment's own Markdown report (``ExperimentResult.report_file``: ``table1.md``, ``summary.md``)
+is written beside it by the same function and opens with the outcome line ``scripts/report RUN``
+prints first, so every report says what happened before its tables.
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import ConfigurationError
+from ..core.run_outcome import experiment_outcome, outcome_markdown
 from .checkpoint import Checkpoint
 from .sweep import Steps
 
@@ -146,13 +151,16 @@ class ExperimentResult:
 
     passed: its acceptance check; outcome: one line saying what happened (the report's first
     line); report: the Markdown shown on screen (the main table); acceptance: the individual
-    checks; data: the experiment's own results (JSON-serialisable), saved beside the schema keys.
+    checks; data: the experiment's own results (JSON-serialisable), saved beside the schema keys;
+    report_file: the run directory's file for ``report`` (``table1.md``), written by
+    :func:`write_results` opening with the outcome line as ``scripts/report RUN`` states it.
     """
     passed: bool
     outcome: str
     report: str = ''
     acceptance: dict[str, Any] = field(default_factory=dict)
     data: dict[str, Any] = field(default_factory=dict)
+    report_file: str | None = None
 
     def __post_init__(self):
         clash = sorted(set(self.data) & set(RESERVED_KEYS))
@@ -189,8 +197,20 @@ def results_document(experiment: Experiment, request: ExperimentRequest, result:
 
 def write_results(experiment: Experiment, request: ExperimentRequest, result: ExperimentResult,
                   wall_s: float) -> Path:
+    """results.json, and the experiment's report (``result.report_file``) with its outcome first."""
     path = Path(request.run_dir) / 'results.json'
-    path.write_text(json.dumps(results_document(experiment, request, result, wall_s), indent=2) + '\n')
+    document = results_document(experiment, request, result, wall_s)
+    path.write_text(json.dumps(document, indent=2) + '\n')
+    if result.report_file:
+        write_report(Path(request.run_dir) / result.report_file, document, result.report)
+    return path
+
+
+def write_report(path: Path, document: Mapping[str, Any], report: str) -> Path:
+    """``report`` (Markdown) under the outcome line(s) of results ``document``: the same lines
+    ``scripts/report RUN`` puts first (:func:`~collab_tools.core.run_outcome.outcome_markdown`)."""
+    lines = outcome_markdown([experiment_outcome(document)])
+    path.write_text('\n'.join(lines) + '\n\n' + report.lstrip('\n'))
     return path
 
 

@@ -1,4 +1,11 @@
-"""Figures for experiment reports: headless, one style, saved so titles and legends are never clipped."""
+"""Figures for experiment reports: headless, one style, saved so titles and legends are never clipped.
+
+An experiment that ran in simulation draws its trajectories like ``scripts/report`` does: the scene
+of its bag (:func:`bag_scene`: walls, obstacles, targets, each robot's colour) drawn with
+:func:`collab_tools.core.report_plots.draw_scene`, robots in
+:func:`~collab_tools.core.report_plots.robot_colours`, framed by
+:func:`~collab_tools.core.report_plots.frame_scene`.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -28,3 +35,14 @@ def save(fig, path: str | Path, dpi: int = DPI) -> Path:
     fig.savefig(path, dpi=dpi, bbox_inches='tight')
     plt.close(fig)
     return path
+
+
+def bag_scene(bag: str | Path | None):
+    """The simulated scene of a recorded run (a :class:`~collab_tools.core.scene_layout.SceneLayout`),
+    from the scene readers the subsystems register for ``scripts/report``; None when none knows the bag."""
+    if bag is None:
+        return None
+    from ..core.scene_layout import scene_of_bag
+    from ..report_cli import load_plot_plugins   # the bridge's scene reader is one of the plug-ins
+    load_plot_plugins()
+    return scene_of_bag(Path(bag))

@@ -45,7 +45,6 @@ from .collab_simulation import RunRecord, SimMember, initial_process_roles, scen
 from .path_measures import contact_onsets, finite_difference_jerk, pair_distances, separation_measures
 
 METHOD_LABEL = {'task_based': 'task-based (last positions)', 'role_based': 'role-based (process roles)'}
-ROBOT_COLOURS = ['tab:red', 'tab:blue', 'tab:green', 'tab:orange', 'tab:purple', 'tab:brown']
 SIMULATION = ('core-level: kinematic differential-drive robots (bridge velocity/acceleration limits), each driven '
               "by the role_player node's core RolePlayer (trajectory follower, replan_process_role every "
               'replan_period), exact positions (no camera noise); not pybullet')
@@ -120,9 +119,9 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                         run_dir / f'{scenario.name}_distance.png')
     acceptance = collab_acceptance(results)
     report = collab_markdown(results, acceptance)
-    (run_dir / 'collab.md').write_text(report)
     log(f"[roles-collab] acceptance: {'passed' if acceptance['passed'] else 'FAILED'} ({acceptance['reason']})")
-    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results)
+    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results,
+                            report_file='collab.md')
 
 
 def collab_acceptance(results: dict) -> dict:
@@ -173,8 +172,8 @@ def _plot_paths(name: str, entry: dict, environment: Environment, team, records:
     for ax, (method, record) in zip(axes[0], records.items()):
         ax.imshow(np.where(environment.occupied, 0.0, 1.0), origin='lower', extent=(x0, x1, y0, y1), cmap='gray',
                   vmin=0.0, vmax=1.0, interpolation='nearest')
-        for k, member in enumerate(team):
-            colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
+        for member in team:
+            colour = member.color   # as the robot looks in the simulation (its scenario's colour)
             p = record.positions[member.name]
             ax.plot(p[:, 0], p[:, 1], '-', color=colour, lw=1.3, label=member.name)
             ax.add_patch(Circle(p[0], member.robot_type.radius, fill=False, ec=colour, ls='--'))

@@ -20,21 +20,20 @@ The acceptance: completed, no collision, min robot distance >= sum of radii, min
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from collab_tools.core.report_plots import draw_scene, frame_scene, robot_colours
+from collab_tools.core.scene_layout import SceneLayout
 from collab_tools.experiments import plots
 from collab_tools.experiments.api import ExperimentRequest, ExperimentResult
 
 from ..core.errors import RoleEngineError
-from .collab import ROBOT_COLOURS
 from .formation_bag import CHANNEL, FormationLog, commanded_positions, formation_results, read_formation_bag
 from .formation_inputs import EXPERIMENT_FILE, formation_inputs
-from .path_measures import ObstacleBox
 #: Re-optimised roles the stopped player publishes before it is stopped.
 STOP_AFTER_VERSIONS = 5
 
@@ -79,10 +78,11 @@ def run(request: ExperimentRequest) -> ExperimentResult:
                     'positions_from': 'role players: robot_tracker (camera colour tracking); measures: ground truth'})
     acceptance = formation_acceptance(results, stop_player)
     report = formation_markdown(results, acceptance)
-    (run_dir / 'formation.md').write_text(report)
-    plot_commanded_vs_tracked(flog, results, run_dir / 'commanded_vs_tracked.png', inputs.obstacles)
-    plot_commands(flog, run_dir / 'cmd_vel.png')
-    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results)
+    scene = plots.bag_scene(bag)   # the world as the simulation drew it: walls, boxes/map, robots' colours
+    plot_commanded_vs_tracked(flog, results, run_dir / 'commanded_vs_tracked.png', scene)
+    plot_commands(flog, run_dir / 'cmd_vel.png', scene)
+    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results,
+                            report_file='formation.md')
 
 
 def formation_acceptance(results: dict, stopped: str | None = None) -> dict:
@@ -165,20 +165,15 @@ def _mm(value: float | None) -> str:
 
 
 def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path,
-                              obstacles: list[ObstacleBox] | None = None) -> None:
-    """Fig. 15: commanded (+, the role in force) and actual (., ground truth) positions of every robot,
-    over the static obstacles (grey)."""
+                              scene: SceneLayout | None = None) -> None:
+    """Fig. 15: commanded (+, the role in force) and actual (., ground truth) positions of every robot in
+    its simulation colour, over the scene's walls, obstacles (map cells too) and targets, as the report's
+    trajectory plots draw them (``scene``: :func:`collab_tools.experiments.plots.bag_scene`)."""
     fig, (ax, ax_err) = plots.figure(12.0, 5.4, columns=2)
-    from matplotlib.patches import Rectangle
-
-    for box in obstacles or []:
-        c, s = math.cos(box.yaw), math.sin(box.yaw)
-        hx, hy = box.size[0] / 2.0, box.size[1] / 2.0
-        corner = (box.center[0] - c * hx + s * hy, box.center[1] - s * hx - c * hy)
-        ax.add_patch(Rectangle(corner, box.size[0], box.size[1], angle=math.degrees(box.yaw), color='0.6',
-                               alpha=0.7, lw=0))
-    for k, robot in enumerate(sorted(log.truth)):
-        colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
+    draw_scene(ax, scene)
+    colours = robot_colours(log.truth, scene)
+    for robot in sorted(log.truth):
+        colour = colours[robot]
         truth = log.truth[robot]
         commanded = commanded_positions(log.roles.get(robot, []), log.truth_times)
         step = max(1, len(truth) // 150)
@@ -189,7 +184,7 @@ def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path,
             ax.plot(*results['robots'][robot]['goal'], 'o', mfc='none', mec=colour, ms=12)
         error = np.hypot(*(commanded - truth).T)
         ax_err.plot(log.truth_times - log.truth_times[0], error, '-', color=colour, lw=1, label=robot)
-    ax.set_aspect('equal')
+    frame_scene(ax, scene)
     ax.set_xlabel('x (m)')
     ax.set_ylabel('y (m)')
     ax.grid(alpha=0.3)
@@ -203,14 +198,15 @@ def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path,
     plots.save(fig, path)
 
 
-def plot_commands(log: FormationLog, path: Path) -> None:
-    """The recorded cmd_vel of every robot (linear and angular) over time."""
+def plot_commands(log: FormationLog, path: Path, scene: SceneLayout | None = None) -> None:
+    """The recorded cmd_vel of every robot (linear and angular) over time, in its simulation colour."""
     fig, (ax_v, ax_w) = plots.figure(9.0, 5.4, rows=2, sharex=True)
     t0 = log.truth_times[0] if len(log.truth_times) else 0.0
-    for k, (robot, commands) in enumerate(sorted(log.commands.items())):
+    colours = robot_colours(log.commands, scene)
+    for robot, commands in sorted(log.commands.items()):
         if len(commands) == 0:
             continue
-        colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
+        colour = colours[robot]
         ax_v.plot(commands[:, 0] - t0, commands[:, 1], '-', color=colour, lw=1, label=robot)
         ax_w.plot(commands[:, 0] - t0, commands[:, 2], '-', color=colour, lw=1, label=robot)
     ax_v.set_ylabel('linear (m/s)')

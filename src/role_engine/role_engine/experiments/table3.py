@@ -88,10 +88,9 @@ def run_table3(config: ExperimentConfig, run_dir, log: Log = print, steps=None) 
                          'Table III: feasibility per environment', run_dir / 'table3_feasibility.png', as_percent=True,
                          paper={init: PAPER_TABLE3[init][0] for init in INITIALISATIONS})
     report = table3_markdown(results, message)
-    (run_dir / 'table3.md').write_text(report)
     (run_dir / 'paper_notes.md').write_text(table3_notes(results))
     log(f'[roles-table3] {message}; wall time {outcome.wall_time_s:.0f} s')
-    return ExperimentResult(passed, message, report, {'message': message}, results)
+    return ExperimentResult(passed, message, report, {'message': message}, results, report_file='table3.md')
 
 
 def probe_solve(problem, environment, config: ExperimentConfig, sigma: float) -> dict:

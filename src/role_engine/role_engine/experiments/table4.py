@@ -101,10 +101,9 @@ def run_table4(config: ExperimentConfig, run_dir, log: Log = print, steps=None) 
                          run_dir / 'table4_cost.png', log_scale=True,
                          paper={m: PAPER_TABLE4[m][1] for m in ASSOCIATIONS})
     report = table4_markdown(results, message)
-    (run_dir / 'table4.md').write_text(report)
     (run_dir / 'paper_notes.md').write_text(table4_notes(results))
     log(f'[roles-table4] {message}; wall time {outcome.wall_time_s:.0f} s')
-    return ExperimentResult(passed, message, report, {'message': message}, results)
+    return ExperimentResult(passed, message, report, {'message': message}, results, report_file='table4.md')
 
 
 def probe_solve(problem, environment, config: ExperimentConfig, sigma: float) -> dict:

@@ -41,12 +41,12 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     data = run_disturbance(task, cases, request.log, request.seed, path=planner_path(request))
     run_dir = Path(request.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    report = _write_disturbance_table(data, run_dir / 'disturbance.md')
+    report = _disturbance_table(data)
     _plot_disturbance(data, run_dir / 'disturbance.png')
     completed = {name: sum(per[name]['completed'] for per in data['cases'].values()) for name in DISTURBANCE_SETTINGS}
     passed = all(completed[name] == len(cases) for name in RESILIENT)
     return ExperimentResult(
-        passed=passed, report=report, data=data,
+        passed=passed, report=report, data=data, report_file='disturbance.md',
         acceptance={'perfect_disturbed_zero_trust_complete_every_case': passed},
         outcome='cases completed per follower: ' + ', '.join(f'{n} {c}/{len(cases)}' for n, c in completed.items()))
 
@@ -91,7 +91,7 @@ def run_disturbance(task: TaskConfig, cases: list[Case], log: Log = print, seed:
     return results
 
 
-def _write_disturbance_table(results: dict, path: Path) -> str:
+def _disturbance_table(results: dict) -> str:
     names = list(DISTURBANCE_SETTINGS)
     lines = ['| case | ' + ' | '.join(names) + ' |', '|---|' + '---|' * len(names)]
     for case, per_case in results['cases'].items():
@@ -100,7 +100,6 @@ def _write_disturbance_table(results: dict, path: Path) -> str:
         lines.append(f'| {case} | ' + ' | '.join(cells) + ' |')
     text = ('completed, rounds, utility (sum of stage-wise utilities over the perfect run\'s rounds, '
             'as Table I sums greedy over SGCM\'s rounds) per follower setting\n\n' + '\n'.join(lines) + '\n')
-    path.write_text(text)
     return text
 
 

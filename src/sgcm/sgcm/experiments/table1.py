@@ -79,7 +79,7 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     completed = sum(o.sgcm.completed for o in outcomes)
     stuck = acceptance['greedy_stuck_cases']
     return ExperimentResult(
-        passed=acceptance.pop('passed'), report=report, acceptance=acceptance, data=data,
+        passed=acceptance.pop('passed'), report=report, acceptance=acceptance, data=data, report_file='table1.md',
         outcome=f'{mode}: SGCM completed {completed} of {len(outcomes)} cases; greedy stuck in {len(stuck)}'
                 + (f" ({', '.join(stuck)})" if stuck else ''))
 
@@ -203,7 +203,7 @@ def _rounds_text(episode: EpisodeResult) -> str:
 
 
 def write_table1(outcomes: list[CaseOutcome], run_dir: Path, comparison: dict | None = None) -> str:
-    """table1.md and stage_utilities.png in ``run_dir``; returns the table (with the paper's rows beside
+    """stage_utilities.png in ``run_dir``; returns the table for table1.md (with the paper's rows beside
     ours when ``comparison``, from :func:`.table1_paper.paper_comparison`, is given)."""
     run_dir.mkdir(parents=True, exist_ok=True)
     lines = ['| case | greedy status | greedy rounds | greedy utility | SGCM status | SGCM rounds | '
@@ -215,7 +215,6 @@ def write_table1(outcomes: list[CaseOutcome], run_dir: Path, comparison: dict | 
     table = '\n'.join(lines) + '\n'
     if comparison is not None:
         table += '\n' + paper_table(comparison)
-    (run_dir / 'table1.md').write_text(table)
     _plot_stage_utilities(outcomes, run_dir / 'stage_utilities.png')
     return table
 
