@@ -1,7 +1,8 @@
 """Pure-Python core of the executable-coalition subsystem (IQ-ASyMTRe), no ROS imports.
 
 Paper: Y. Zhang and L. E. Parker, "IQ-ASyMTRe: Forming Executable Coalitions for Tightly
-Coupled Multirobot Tasks", IEEE T-RO 2013 (``shared/papers/iq_asymtre_coalitions.txt``).
+Coupled Multirobot Tasks", IEEE Transactions on Robotics, doi:10.1109/TRO.2012.2228135 (short name
+``iq_asymtre_coalitions``; the reference is in CITATION.cff).
 
 Concepts
 --------

@@ -1,7 +1,8 @@
 """The IQ-ASyMTRe paper's experiments (``scripts/experiment coalition-*``), one module per table or figure.
 
 Paper: Y. Zhang and L. E. Parker, "IQ-ASyMTRe: Forming Executable Coalitions for Tightly Coupled
-Multirobot Tasks", IEEE T-RO 2013 (``shared/papers/iq_asymtre_coalitions.txt``), Section V-A.
+Multirobot Tasks", IEEE Transactions on Robotics, doi:10.1109/TRO.2012.2228135 (``iq_asymtre_coalitions``,
+CITATION.cff), Section V-A.
 
 ==========================================  ======================  ==================================
 Paper                                       Experiment              Module
