@@ -13,7 +13,15 @@ negotiable (fewer usable robots than ``min_robots``, or no feasible assignment) 
 says ``aborted`` and why, and the node exits if ``exit_when_done``. A first negotiation that finds
 no workable assignment says ``infeasible``. A malformed process role on the channel (out of
 bounds, a robot not in the team) or camera image (an invalid stamp) is dropped, counted and logged
-once per kind by the node's input guard (collab_tools.input_guard). Its tuning (core.node_settings.engine_tuning_schema) are dynamic ROS parameters
+once per kind by the node's input guard (collab_tools.input_guard).
+
+Sessions (core.sessions): the node picks a random session id at start and puts it, with its node
+name as the sender, into every assignment and initial process role; its rounds count from 1 in each
+session, so players follow a restarted engine. It takes process roles of its own session sent by a
+node of the role's robot, and ignores, counts and logs once per kind the others (``other session``,
+``forged sender``). A player that plays no role announces itself on ``<team>/roles/players``
+(role_interfaces/PlayerAnnouncement); a robot excluded as silent whose player is back is re-included
+and the robots renegotiate (core.engine). Its tuning (core.node_settings.engine_tuning_schema) are dynamic ROS parameters
 whose defaults are the shared settings file's values.
 
 The decisions (when to negotiate, who is excluded, when to renegotiate or abort, and why) are
@@ -42,9 +50,10 @@ import sys
 from rclpy.node import Node
 from rclpy.task import Future
 from nav_msgs.msg import OccupancyGrid
-from role_interfaces.msg import ProcessRole, RoleAssignment, Team
+from role_interfaces.msg import PlayerAnnouncement, ProcessRole, RoleAssignment, Team
 
 from collab_tools import qos
+from collab_tools.core.input_checks import MalformedInput
 from collab_tools.input_guard import InputGuard
 from collab_tools.names import TeamNode
 from collab_tools.node_support import run
@@ -56,6 +65,7 @@ from .core.engine import CameraView, RoleEngine as EngineBehaviour, RoundOutcome
 from .core import gp_compiled
 from .core.errors import RoleEngineError
 from .core.grid import GridFrame
+from .core.sessions import check_announcement_sender, engine_channel_verdict, new_session
 from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tuning_schema, tuned
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget
@@ -89,14 +99,18 @@ class RoleEngine(Node):
         team.header.stamp = self.get_clock().now().to_msg()
         team_pub.publish(team)
         self.team_names = frozenset(m.name for m in self.team)
-        InputGuard.of(self).subscribe(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        self.sender, self.session = self.get_fully_qualified_name(), new_session()
+        self.inputs = InputGuard.of(self)
+        self.inputs.subscribe(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
+        self.inputs.subscribe(PlayerAnnouncement, self.names.team('roles/players'), self._on_announcement,
+                              qos.RELIABLE)
         self.log = PortLogger(self.get_logger()).log    # the engine's log lines
         self.engine = EngineBehaviour(self.task, self.team, tuning, self)
         self.observations = None
         self.finished = Future()
         self.create_timer(0.25, self._tick)
         self.get_logger().info(f"{len(self.team)} robots ({', '.join(m.name for m in self.team)}), formation "
-                               f"{self.task.formation['type']}")
+                               f"{self.task.formation['type']}, session {self.session}")
 
     def _retune(self, name: str, value) -> None:
         """A tuning parameter was set: the next check or negotiation uses it (RoleEngineError refuses)."""
@@ -109,9 +123,18 @@ class RoleEngine(Node):
     def _on_role(self, msg: ProcessRole) -> None:
         if msg.robot and msg.robot not in self.team_names:
             channel_role(msg, self.team_names)          # MalformedInput 'unknown robot': counted, logged
+        if not engine_channel_verdict(self.sender, self.session, msg.sender, msg.session, msg.robot):
+            return  # its own initial roles
         if not self.engine.accepts(msg.robot, msg.round, msg.version):
             return  # the engine's own initial roles, or a role of an earlier round
         self.engine.heard(msg.robot, self._now(), channel_role(msg, self.team_names), msg.role_id, msg.arrived)
+
+    def _on_announcement(self, msg: PlayerAnnouncement) -> None:
+        if msg.robot not in self.team_names:
+            raise MalformedInput(f'ignored an announcement of robot {msg.robot[:40]!r}: not in the team',
+                                 kind='unknown robot')
+        check_announcement_sender(msg.sender, msg.robot)
+        self.engine.announced(msg.robot)
 
     def _tick(self) -> None:
         self.engine.tick(self._now(), self._look())
@@ -140,12 +163,13 @@ class RoleEngine(Node):
 
     # --- the engine's port -----------------------------------------------------------------------
     def publish_round(self, outcome: RoundOutcome) -> None:
-        msg = RoleAssignment(round=outcome.round, excluded_robots=list(outcome.excluded), status=outcome.status,
+        msg = RoleAssignment(sender=self.sender, session=self.session, round=outcome.round, excluded_robots=list(outcome.excluded), status=outcome.status,
                              message=outcome.message)
         for assigned in outcome.roles:
             role = assigned.role
             role_msg = process_role_msg(assigned.robot, assigned.role_id, outcome.round, 0, role.start_time,
-                                        role.total_time, role.radius, role.trajectory)
+                                        role.total_time, role.radius, role.trajectory, sender=self.sender,
+                                        session=self.session)
             role_msg.header.stamp = self.get_clock().now().to_msg()
             msg.robots.append(assigned.robot)
             msg.role_ids.append(assigned.role_id)

@@ -36,9 +36,12 @@ MAX_START_TIME = 2.0**31
 
 
 def process_role_msg(robot: str, role_id: str, round_: int, version: int, start_time: float,
-                     total_time: float, radius: float, trajectory: np.ndarray, arrived: bool = False) -> ProcessRole:
+                     total_time: float, radius: float, trajectory: np.ndarray, arrived: bool = False, *,
+                     sender: str = '', session: int = 0) -> ProcessRole:
+    """``sender``: the publishing node's full name; ``session``: the engine session (core.sessions)."""
     states = np.asarray(trajectory, dtype=float)
-    return ProcessRole(robot=robot, role_id=role_id, round=int(round_), version=int(version),
+    return ProcessRole(sender=sender, session=int(session), robot=robot, role_id=role_id, round=int(round_),
+                       version=int(version),
                        start_time=float(start_time), dt=float(total_time) / (len(states) - 1), radius=float(radius),
                        x=states[:, 0].tolist(), y=states[:, 1].tolist(), vx=states[:, 2].tolist(),
                        vy=states[:, 3].tolist(), arrived=bool(arrived))

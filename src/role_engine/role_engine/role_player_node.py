@@ -16,6 +16,16 @@ guard (collab_tools.input_guard): a malformed message (a process role or assignm
 bounds, a robot not in the team, a non-finite pose, an invalid stamp) is dropped, counted and
 logged once per kind; an assignment is used whole or not at all.
 
+Sessions (core.sessions): the player follows the current session of its engine (parameter
+``engine``, the engine's node name in the team namespace): a later round of that session is
+applied, and so is a new session's (a restarted engine counts from round 1 again); assignments of
+other senders, of a session it has left, or more than MAX_ROUND_JUMP rounds ahead are ignored,
+counted and logged once per kind, and so are process roles of another session or whose sender is
+not a node of their robot. Its own process roles carry its node name and the session. While it
+plays no role (at start, after a restart, when left out) it announces itself every re-plan period
+on ``<team>/roles/players``, so an engine that excluded it as silent includes it again; a restarted
+player gets its role from the latched assignment when it is still in the round.
+
 It reads no file another node uses but its settings file (the team-wide tuning defaults, a
 tracked config file; its ``scenario`` is not read): its robot's type, radius and velocity limits
 come from the role engine's latched ``<team>/roles/team``, and the static obstacles its re-plans
@@ -39,7 +49,7 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import OccupancyGrid
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
-from role_interfaces.msg import ProcessRole, RoleAssignment, Team
+from role_interfaces.msg import PlayerAnnouncement, ProcessRole, RoleAssignment, Team
 
 from collab_tools import qos
 from collab_tools.core.input_checks import MalformedInput, error_kind
@@ -52,6 +62,7 @@ from collab_tools.port_logging import PortLogger
 from .core import gp_compiled
 from .core.errors import RoleEngineError
 from .core.node_settings import PLAYER_SETTINGS, player_settings_file, player_tuning_schema, team_member, tuned
+from .core.sessions import SessionFollower, Verdict
 from .core.player import PublishedRole, RolePlayer as PlayerBehaviour, RoundAssignment
 from .core.tuning import PlayerTuning
 from .role_messages import channel_role, environment_of, planar_pose, process_role_msg, shared_role, team_of
@@ -67,7 +78,10 @@ class RolePlayer(Node):
         self.get_logger().info(f'compiled GP kernels ready in {gp_compiled.warm_up():.2f} s')
         self.params = NodeParameters(self)
         self.names = RobotNode(self, self.params)
-        self.task = player_settings_file(self.params.declare_schema(PLAYER_SETTINGS)['settings_file'])
+        settings = self.params.declare_schema(PLAYER_SETTINGS)
+        self.task = player_settings_file(settings['settings_file'])
+        self.sender = self.get_fully_qualified_name()
+        self.sessions = SessionFollower(self.names.team(settings['engine']))
         self.robot = self.names.robot
         self.member = None                   # from the team description
         self.player: PlayerBehaviour | None = None
@@ -77,6 +91,7 @@ class RolePlayer(Node):
         self.log = PortLogger(self.get_logger()).log     # the player's log lines
         self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT)
         self.channel_pub = self.create_publisher(ProcessRole, self.names.team('roles/channel'), qos.RELIABLE)
+        self.announce_pub = self.create_publisher(PlayerAnnouncement, self.names.team('roles/players'), qos.RELIABLE)
         self.inputs = InputGuard.of(self)
         self.team_names: frozenset[str] = frozenset()
         # A team description that names no usable team is dropped; this robot missing from a valid one,
@@ -111,9 +126,10 @@ class RolePlayer(Node):
         inputs.subscribe(ProcessRole, self.names.team('roles/channel'), self._on_role, qos.RELIABLE)
         inputs.subscribe(OccupancyGrid, self.names.team('roles/map'), self._on_map, qos.LATCHED)
         inputs.subscribe(PoseStamped, 'tracked_pose', self._on_pose, qos.SENSOR_IN)
-        self.replan_timer = self.create_timer(tuning.replan_period, lambda: self.player.replan(self._now()))
+        self.replan_timer = self.create_timer(tuning.replan_period, self._replan)
         self.create_timer(POSE_TIMEOUT / 4.0, lambda: self.player.check_pose_age(self._now(), POSE_TIMEOUT))
-        self.get_logger().info(f'{self.robot} ({member.robot_type.name}) ready')
+        self.get_logger().info(f'{self.robot} ({member.robot_type.name}) ready, following {self.sessions.engine}')
+        self._announce()
 
     def _retune(self, name: str, value) -> None:
         """A tuning parameter was set: the next period, re-plan and command use it (RoleEngineError refuses)."""
@@ -127,7 +143,7 @@ class RolePlayer(Node):
 
     # --- messages in -----------------------------------------------------------------------------
     def _on_assignment(self, msg: RoleAssignment) -> None:
-        if msg.round <= self.player.round:
+        if self.sessions.check_assignment(msg.sender, msg.session, msg.round) is Verdict.OLD:
             return
         # Converted whole before the player sees it: a malformed initial role drops the assignment
         # (the guard counts and logs it), never half of it.
@@ -139,8 +155,11 @@ class RolePlayer(Node):
             except ValueError as error:
                 raise MalformedInput(f'assignment of round {msg.round}: initial_roles[{index}]: {error}',
                                      kind=f'assignment: {error_kind(error)}') from None
+        left = self.sessions.session
+        if self.sessions.follow(msg.session, msg.round) and left:
+            self.get_logger().info(f'following the new session {msg.session} of {msg.sender} (left session {left})')
         self.assignment_stamp = msg.header.stamp
-        self.player.on_assignment(RoundAssignment(msg.round, msg.status, msg.message, roles))
+        self.player.on_assignment(RoundAssignment(msg.round, msg.status, msg.message, roles, msg.session))
 
     def _playable(self, role):
         """The role, once its controller can be built (RoleEngineError, a ValueError, when not)."""
@@ -148,7 +167,8 @@ class RolePlayer(Node):
         return role
 
     def _on_role(self, msg: ProcessRole) -> None:
-        if msg.robot == self.robot or msg.round != self.player.round:
+        if msg.robot == self.robot or not self.sessions.channel_verdict(self.sender, msg.sender, msg.session,
+                                                                         msg.robot, msg.round):
             return
         self.player.on_role(msg.robot, msg.round, channel_role(msg, self.team_names))
 
@@ -171,9 +191,22 @@ class RolePlayer(Node):
     def publish_role(self, published: PublishedRole) -> None:
         role = published.role
         msg = process_role_msg(published.robot, published.role_id, published.round, published.version,
-                               role.start_time, role.total_time, role.radius, role.trajectory, published.arrived)
+                               role.start_time, role.total_time, role.radius, role.trajectory, published.arrived,
+                               sender=self.sender, session=published.session)
         msg.header.stamp = self.get_clock().now().to_msg()
         self.channel_pub.publish(msg)
+
+    def _replan(self) -> None:
+        self.player.replan(self._now())
+        if self.player.role is None:
+            self._announce()
+
+    def _announce(self) -> None:
+        """Tell the engine this player is here and plays no role (a restarted player is included again)."""
+        msg = PlayerAnnouncement(sender=self.sender, robot=self.robot, session=self.sessions.session,
+                                 round=self.sessions.round)
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.announce_pub.publish(msg)
 
     def round_environment(self, round_: int):
         """Env_tau of the round from the engine's map of this round (same stamp), None until it is here."""
@@ -185,7 +218,6 @@ class RolePlayer(Node):
         except (ValueError, RoleEngineError) as error:
             self.get_logger().error(f'unusable map of round {round_}: {error}', throttle_duration_sec=5.0)
             return None
-
 
 
 def main(args=None) -> int:

@@ -90,11 +90,14 @@ def test_engine_tuning_defaults_come_from_the_settings_file_and_bad_values_are_r
 
 # --- role_player --------------------------------------------------------------------------------
 def test_player_settings_need_no_scenario(tmp_path):
-    assert PLAYER_SETTINGS.names == ['settings_file']
+    assert PLAYER_SETTINGS.names == ['settings_file', 'engine']
     with refused('parameter settings_file: required'):
         PLAYER_SETTINGS.validate({})
     task = player_settings_file(edited_settings(tmp_path, {'scenario': 'nowhere.yaml'}))
     assert task.replan_period > 0
+    assert PLAYER_SETTINGS.validate({'settings_file': 'x'})['engine'] == 'role_engine'
+    with refused('parameter engine: must be a ROS node name'):
+        PLAYER_SETTINGS.validate({'settings_file': 'x', 'engine': '/role_engine'})
 
 
 @pytest.mark.parametrize('edit, message', [

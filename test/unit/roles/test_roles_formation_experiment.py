@@ -12,6 +12,8 @@ from role_engine.experiments.formation import formation_acceptance  # noqa: E402
 from role_engine.experiments.formation_bag import commanded_positions, formation_results, read_formation_bag  # noqa: E402
 
 WS = Path(__file__).resolve().parents[3]
+#: The recorded engine's session (role_engine.core.sessions).
+SESSION = 7
 TYPES = {'/roles/assignment': 'role_interfaces/msg/RoleAssignment', '/roles/channel': 'role_interfaces/msg/ProcessRole',
          '/ground_truth/bodies': 'bridge_interfaces/msg/BodyStates', '/a/cmd_vel': 'geometry_msgs/msg/Twist',
          '/b/cmd_vel': 'geometry_msgs/msg/Twist'}
@@ -41,7 +43,7 @@ def _role(T, t, robot, start, goal, version, arrived=False):
     xs, ys = np.linspace(start[0], goal[0], 11), np.linspace(start[1], goal[1], 11)
     vx, vy = (goal[0] - start[0]) / 10.0, (goal[1] - start[1]) / 10.0
     return T['role_interfaces/msg/ProcessRole'](
-        header=_header(T, t), robot=robot, role_id=f'line_{robot}', round=1, version=version, start_time=START,
+        header=_header(T, t), sender=f'/{robot}/role_player', session=SESSION, robot=robot, role_id=f'line_{robot}', round=1, version=version, start_time=START,
         dt=1.0, radius=RADII[robot], x=xs, y=ys, vx=np.full(11, vx), vy=np.full(11, vy), arrived=arrived)
 
 
@@ -75,7 +77,7 @@ def write_bag(path, typestore, *, pass_gap, b_arrives=True, end=14.0):
 
         initial = [_role(T, 1.0, r, (-GOALS[r][0], 0.0), GOALS[r], 0) for r in ('a', 'b')]
         put('/roles/assignment', 1.0, T['role_interfaces/msg/RoleAssignment'](
-            header=_header(T, 1.0), round=1, status='assigned', message='initial negotiation', robots=['a', 'b'],
+            header=_header(T, 1.0), sender='/role_engine', session=SESSION, round=1, status='assigned', message='initial negotiation', robots=['a', 'b'],
             role_ids=['line_a', 'line_b'], goal_x=np.array([1.0, -1.0]), goal_y=np.array([0.0, 0.0]),
             excluded_robots=[], initial_roles=initial))
         for role in initial:

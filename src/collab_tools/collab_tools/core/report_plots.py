@@ -201,13 +201,16 @@ def robot_colours(names, layout: SceneLayout | None) -> dict[str, tuple]:
 
 
 def formation_targets(bag: Path, summary: BagSummary) -> dict[str, tuple[float, float]]:
-    """robot -> goal of the last assigned round of any RoleAssignment topic ({} without one)."""
+    """robot -> goal of the last assigned round of any RoleAssignment topic ({} without one); of the last
+    engine session recorded (bag order)."""
     goals: dict[str, tuple[float, float]] = {}
     topics = summary.topics_of_type(ROLE_ASSIGNMENT_TYPE)
     if not topics:
         return goals
-    best = -1
+    best, session = -1, None
     for _topic, _ns, msg in read_messages(bag, topics):
+        if getattr(msg, 'session', 0) != session:      # a restarted role engine counts its rounds anew
+            best, session = -1, getattr(msg, 'session', 0)
         if msg.status == 'assigned' and msg.round >= best:
             best = msg.round
             goals = {r: (float(x), float(y)) for r, x, y in zip(msg.robots, msg.goal_x, msg.goal_y)}

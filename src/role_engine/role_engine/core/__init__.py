@@ -1,7 +1,8 @@
 """Pure-Python core of the role engine (RBC + GP inference), no ROS imports, no simulator.
 
-Paper: B. Akbari, Z. Wang, H. Zhu, L. Wan, R. Adderson and Y.-J. Pan, "Role engine implementation
-for a continuous and collaborative multirobot system" (``shared/papers/role_engine_gp_inference.txt``).
+Paper: B. Akbari, Z. Wang, H. Zhu, L. Wan, R. Adderson and Y.-J. Pan, "Role Engine Implementation
+for a Continuous and Collaborative Multi-Robot System" (short name ``role_engine_gp_inference``; the
+reference is in CITATION.cff).
 
 Concepts
 --------
@@ -79,6 +80,9 @@ based; narrow hallway)                         simulation of the nodes' RolePlay
 Sec. V-B, Figs. 15-16 (diamond, real robots)   role_engine.experiments.formation (the nodes
                                                in simulation, measured from the bag)
 E-Map, roles and process roles watched live    markers (RoleMarkers)
+(ours)
+Sessions and senders of assignments and        sessions (SessionFollower, engine_channel_verdict);
+process roles, restarted nodes rejoining       engine (RoleEngine.announced)
 (ours)
 =============================================  ==================================================
 

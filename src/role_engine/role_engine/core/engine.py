@@ -12,6 +12,8 @@ it decides:
 * :meth:`RoleEngine.heard` -- a player's process role from the shared channel (its heartbeat),
   after :meth:`RoleEngine.accepts` said it belongs to the round; ``arrived`` reports count toward
   the formation's completion.
+* :meth:`RoleEngine.announced` -- a player without a role announced itself: a robot excluded as
+  silent is back (a restarted player) and is re-included at the next negotiation.
 
 Effects through an :class:`EnginePort`: a :class:`RoundOutcome` to publish (assignment, initial
 process roles and the map they were negotiated on), log lines, and "finished" (the formation is
@@ -20,11 +22,16 @@ complete, or the task infeasible or aborted).
 Renegotiation policy (where the paper is silent, ours): a renegotiation with fewer usable robots
 than ``min_robots`` aborts the task; so does a renegotiation that finds no feasible assignment
 (the first negotiation then says ``infeasible``). An excluded robot stays excluded for the rest
-of the task; the camera sees it as an obstacle.
+of the task (the camera sees it as an obstacle), except a robot excluded as *silent* whose player
+announces itself again (it was restarted, or its link is back): it is re-included and the robots
+renegotiate, at most :data:`MAX_REJOINS` times per robot, so a player that keeps falling silent
+cannot make the team renegotiate forever. A stuck or off-role robot stays out: its player being
+alive says nothing about the robot.
 """
 from __future__ import annotations
 
 import time
+from collections import Counter
 from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Mapping, Protocol, Sequence
@@ -39,6 +46,10 @@ from .formation_task import FormationTask, TeamMember, TypedGPEvaluator
 from .negotiation import Agent
 from .problems import ProblemWatch
 from .tuning import EngineTuning
+
+
+#: Re-inclusions of one robot excluded as silent (module docstring).
+MAX_REJOINS = 3
 
 
 class EnginePhase(Enum):
@@ -106,6 +117,8 @@ class RoleEngine:
         self.round = 0
         self.active: list[str] = []          # robots of the current round
         self.excluded: list[str] = []
+        self.silent: set[str] = set()        # excluded as silent: re-included when their player is back
+        self.rejoins: Counter[str] = Counter()
         self.arrived: set[str] = set()
 
     def retune(self, tuning: EngineTuning) -> None:
@@ -128,6 +141,23 @@ class RoleEngine:
                 self.port.log('info', f'round {self.round}: formation complete')
                 self.port.task_ended()
 
+    def announced(self, robot: str) -> bool:
+        """A robot's player announced itself without a role; True when that re-included the robot (it had
+        been excluded as silent, the task goes on, and it has rejoined fewer than MAX_REJOINS times)."""
+        if robot not in self.silent or self.phase is EnginePhase.DONE:
+            return False
+        if self.rejoins[robot] >= MAX_REJOINS:
+            self.port.log('warn', f'{robot} is back but stays excluded: it rejoined {MAX_REJOINS} times already',
+                          throttle=30.0)
+            return False
+        self.silent.discard(robot)
+        self.excluded.remove(robot)
+        self.rejoins[robot] += 1
+        self.pending_why = f'{robot} is back'
+        self.phase = EnginePhase.NEGOTIATE
+        self.port.log('info', f'{robot} is back (its player announced itself): renegotiating with it')
+        return True
+
     # --- the engine period --------------------------------------------------------------------
     def tick(self, now: float, view: CameraView | None) -> None:
         if self.phase is EnginePhase.NEGOTIATE:
@@ -144,6 +174,7 @@ class RoleEngine:
                 why = '; '.join(str(p) for p in problems)
                 self.port.log('warn', f'round {self.round}: {why}; renegotiating without them')
                 self.excluded.extend(p.robot for p in problems)
+                self.silent.update(p.robot for p in problems if p.kind == 'silent')
                 self.phase = EnginePhase.NEGOTIATE
                 self.pending_why = why
                 if view is not None:

@@ -125,6 +125,11 @@ def process_role_markers(roles: dict, colours: dict[str, tuple], now: float, fra
     return specs
 
 
+def _session(msg) -> int:
+    """The engine session of an assignment or process role (0 in recordings made before sessions)."""
+    return int(getattr(msg, 'session', 0))
+
+
 class RoleMarkers:
     """The visualiser's role engine source (collab_tools.core.marker_specs)."""
 
@@ -158,14 +163,17 @@ class RoleMarkers:
 
     def on_assignment(self, msg, topic: str = '') -> None:
         _check_lengths(msg, ('robots', 'role_ids', 'goal_x', 'goal_y'), 'roles/assignment')
-        self.assignment = msg
-        if int(msg.round) > max((int(r.round) for r in self.roles.values()), default=0):
-            self.roles = {}  # a new round: the old process roles are over
+        previous, self.assignment = self.assignment, msg
+        new_session = previous is not None and _session(previous) != _session(msg)
+        if new_session or int(msg.round) > max((int(r.round) for r in self.roles.values()), default=0):
+            self.roles = {}  # a new round, or a restarted engine's session: the old process roles are over
         for role in msg.initial_roles:
             self.on_process_role(role)
 
     def on_process_role(self, msg, topic: str = '') -> None:
         role_state_at(msg, float(msg.start_time))  # refuse what cannot be drawn before keeping it
+        if self.assignment is not None and _session(msg) != _session(self.assignment):
+            return  # a role of an engine session that is over (or not assigned yet)
         have = self.roles.get(str(msg.robot))
         if have is None or (int(msg.round), int(msg.version)) >= (int(have.round), int(have.version)):
             self.roles[str(msg.robot)] = msg

@@ -18,6 +18,7 @@ checks (e.g. a velocity cap above the robot type's limit) become ``Configuration
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping, Sequence, TypeVar
 
 from collab_tools.core.errors import ConfigurationError
@@ -49,10 +50,18 @@ ENGINE_SETTINGS = SettingsSchema(
     Setting('exit_when_done', False, 'exit once the formation is complete or the task is aborted'),
 )
 
+def _node_name(value: str) -> str | None:
+    return None if re.fullmatch(r'[A-Za-z_][A-Za-z0-9_]*', value) else \
+        f'must be a ROS node name: letters, digits and _, not starting with a digit (got {value[:60]!r})'
+
+
 PLAYER_SETTINGS = SettingsSchema(
     Setting('settings_file', '', 'formation settings YAML (config/roles/formation_demo.yaml): the team-wide '
             'defaults of the tuning parameters (its scenario is not read: the team and the map come from the '
             'role engine)', required=True),
+    Setting('engine', 'role_engine', "the role engine's node name in the team namespace: the player follows the "
+            'assignments this node sends (its current session) and ignores other senders (core.sessions)',
+            check=_node_name),
 )
 
 TRACKER_SETTINGS = SettingsSchema(

@@ -46,12 +46,15 @@ class PlayerState(Enum):
 @dataclass(frozen=True)
 class RoundAssignment:
     """A negotiation round as a player needs it: ``initial_roles`` maps every assigned robot to its
-    (role id, initial process role); ``status`` is 'assigned' when roles were handed out."""
+    (role id, initial process role); ``status`` is 'assigned' when roles were handed out. ``session``:
+    the engine's session (core.sessions); a round of another session than the player's is a new start
+    (the node's SessionFollower has decided it is to be followed)."""
 
     round: int
     status: str
     message: str
     initial_roles: Mapping[str, tuple[str, SharedRole]]
+    session: int = 0
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,7 @@ class PublishedRole:
     version: int
     role: SharedRole
     arrived: bool
+    session: int = 0                # the engine session of the round
 
 
 class PlayerPort(Protocol):
@@ -90,6 +94,7 @@ class RolePlayer:
         self.tuning = tuning
         self.port = port
         self.state = PlayerState.IDLE
+        self.session = 0                                  # the engine session of the round (0: none)
         self.round = 0
         self.role: SharedRole | None = None
         self.role_id = ''
@@ -114,9 +119,9 @@ class RolePlayer:
 
     # --- the shared channel -------------------------------------------------------------------
     def on_assignment(self, assignment: RoundAssignment) -> None:
-        if assignment.round <= self.round:
+        if assignment.session == self.session and assignment.round <= self.round:
             return
-        self.round = assignment.round
+        self.session, self.round = assignment.session, assignment.round
         self.others = {}
         self.arrived_at = None
         self.robot_env = None                # this round's map (robots excluded from it are obstacles)
@@ -149,7 +154,7 @@ class RolePlayer:
 
     def _publish(self) -> None:
         self.port.publish_role(PublishedRole(self.robot, self.role_id, self.round, max(self.version, 1), self.role,
-                                             self.arrived))
+                                             self.arrived, self.session))
 
     # --- tracked pose and control (Algorithm 4 lines 4, 7) -----------------------------------
     def observe(self, now: float, pose) -> None:

@@ -58,6 +58,7 @@ class AssignmentRecord:
     role_ids: dict[str, str]
     excluded: list[str]
     start_time: float | None                    # the round's roles' start time (s, sim clock)
+    session: int = 0                            # the engine's session (a restarted engine counts rounds anew)
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,7 @@ class RoleRecord:
     total_time: float
     trajectory: np.ndarray
     arrived: bool
+    session: int = 0
 
     def position(self, t: float) -> np.ndarray:
         return interpolate(self.trajectory, self.total_time, [t - self.start_time])[0][0]
@@ -91,7 +93,20 @@ def _role_record(msg) -> RoleRecord:
         raise ValueError(f'process role of {msg.robot!r} (round {msg.round}, version {msg.version}): needs >= 2 '
                          f'states and dt > 0 (got {len(states)}, {msg.dt})')
     return RoleRecord(_stamp(msg.header), int(msg.round), int(msg.version), float(msg.start_time),
-                      float(msg.dt) * (len(states) - 1), states, bool(msg.arrived))
+                      float(msg.dt) * (len(states) - 1), states, bool(msg.arrived), int(getattr(msg, 'session', 0)))
+
+
+def final_assignment(assignments: list[AssignmentRecord]) -> AssignmentRecord | None:
+    """The run's last round: the highest round of the last engine session recorded (bag order), so a
+    restarted engine's rounds 1, 2, ... are not hidden behind the first engine's higher ones."""
+    if not assignments:
+        return None
+    session = assignments[-1].session
+    return max((a for a in assignments if a.session == session), key=lambda a: a.round)
+
+
+def _of_round(roles: list[RoleRecord], final: AssignmentRecord) -> list[RoleRecord]:
+    return [r for r in roles if r.round == final.round and r.session == final.session]
 
 
 def read_formation_bag(bag: Path, robots: list[str]) -> FormationLog:
@@ -107,7 +122,7 @@ def read_formation_bag(bag: Path, robots: list[str]) -> FormationLog:
                 _stamp(msg.header), int(msg.round), msg.status, msg.message,
                 {r: (float(x), float(y)) for r, x, y in zip(msg.robots, msg.goal_x, msg.goal_y)},
                 dict(zip(msg.robots, msg.role_ids)), list(msg.excluded_robots),
-                min(starts) if starts else None))
+                min(starts) if starts else None, int(getattr(msg, 'session', 0))))
         elif topic == CHANNEL:
             if msg.robot in log.roles:
                 log.roles[msg.robot].append(_role_record(msg))
@@ -150,14 +165,14 @@ def formation_results(log: FormationLog, radii: dict[str, float], arrival_tolera
     separation['robot_collisions'] = separation['collisions']
     clearance = obstacle_clearances(log.truth, radii, list(obstacles or []), log.truth_times)
     separation.update(clearance, collisions=separation['robot_collisions'] + clearance['obstacle_contacts'])
-    final = max(log.assignments, key=lambda a: a.round) if log.assignments else None
-    results = {'rounds': [{'round': a.round, 'status': a.status, 'message': a.message, 'robots': sorted(a.goals),
-                           'excluded': a.excluded} for a in sorted(log.assignments, key=lambda a: a.round)],
+    final = final_assignment(log.assignments)
+    results = {'rounds': [{'round': a.round, 'session': a.session, 'status': a.status, 'message': a.message,
+                           'robots': sorted(a.goals), 'excluded': a.excluded} for a in log.assignments],
                **separation, 'recorded_s': float(log.truth_times[-1] - log.truth_times[0]), 'robots': {}}
     assigned = final is not None and final.status == 'assigned'
     completed = assigned
     for robot in (sorted(final.goals) if assigned else []):
-        roles = [r for r in log.roles.get(robot, []) if r.round == final.round]
+        roles = _of_round(log.roles.get(robot, []), final)
         arrived = next((r for r in sorted(roles, key=lambda r: r.stamp) if r.arrived), None)
         goal = np.asarray(final.goals[robot])
         final_error = float(np.hypot(*(log.truth[robot][-1] - goal)))
@@ -194,15 +209,15 @@ def formation_outcome(bag: Path, summary: BagSummary | None = None) -> Outcome |
     log = read_formation_bag(bag, robots)
     if not log.assignments:
         return None
-    final = max(log.assignments, key=lambda a: a.round)
-    rounds = len({a.round for a in log.assignments})
+    final = final_assignment(log.assignments)
+    rounds = len({(a.session, a.round) for a in log.assignments})
     if final.status != 'assigned':
         return Outcome('roles', 'not formed', f'round {final.round} {final.status}: {final.message}'[:300],
                        passed=False, figures={'rounds': rounds, 'final_status': final.status},
                        checks={'formed': False})
     arrivals = {}
     for robot in final.goals:
-        arrived = sorted((r.stamp for r in log.roles.get(robot, []) if r.round == final.round and r.arrived))
+        arrived = sorted((r.stamp for r in _of_round(log.roles.get(robot, []), final) if r.arrived))
         if arrived:
             arrivals[robot] = arrived[0]
     errors = {robot: float(np.hypot(*(log.truth[robot][-1] - np.asarray(goal))))
