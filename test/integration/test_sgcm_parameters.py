@@ -22,8 +22,9 @@ from sgcm.ros_conversions import grid_state_msg
 
 LEADER = '/leader_arm/leader_planner'
 FOLLOWER = '/follower_arm/follower_executor'
-LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time', 'perception_fault_after'}
-FOLLOWER_DYNAMIC = {'settle_time', 'perception_fault_after'}   # perception_fault_after: test_fuzz_sgcm
+ARM_DYNAMIC = {'arm_goal_timeout', 'arm_server_lost_after'}      # sgcm.arm_client; test_sgcm_restarts
+LEADER_DYNAMIC = {'horizon', 'round_limit', 'follower_timeout', 'settle_time', 'perception_fault_after', *ARM_DYNAMIC}
+FOLLOWER_DYNAMIC = {'settle_time', 'perception_fault_after', *ARM_DYNAMIC}   # perception_fault_after: test_fuzz_sgcm
 
 
 def leader_spec(task_file, **parameters) -> NodeSpec:
@@ -123,7 +124,7 @@ def test_follower_parameters_are_applied_or_refused(session, tmp_path, task_file
 
     model = RearrangementModel(task)
     clock = session.wait_for_message('/clock', 'rosgraph_msgs/msg/Clock', timeout=30)
-    msg = Guidance(round=1, horizon=task.horizon, strategy='sgcm',
+    msg = Guidance(sender='/leader_arm/leader_planner', session=1, round=1, horizon=task.horizon, strategy='sgcm',
                    state=grid_state_msg(task, model.state_of(case)), leader_move=Move(empty=True),
                    leader_move_succeeded=True, recommended_follower_move=Move(empty=True))
     msg.header.stamp = clock.clock

@@ -40,6 +40,9 @@ from .core.task_config import TaskConfig
 CUBE_KIND = 'cube'
 #: Wall seconds a streaming camera without a get_frame service is given before the node streams.
 SERVICE_GRACE = 3.0
+#: Wall seconds a get_frame request may stay unanswered before it is asked again (a crashed camera
+#: never answers: without this the node would wait for that answer forever).
+REQUEST_TIMEOUT = 10.0
 
 CAMERA_INPUT_SETTINGS = SettingsSchema(
     Setting('camera_on_demand', True, "ask the camera's get_frame service for a frame when one is needed "
@@ -61,6 +64,7 @@ class OnDemandFrames:
         self.refused: str | None = None     # the camera's reason, once it refuses
         self.requests = 0
         self._pending = None
+        self._asked_at = 0.0
         self._geometry: tuple[object, object, TopViewGeometry] | None = None
 
     def frame_time(self) -> Time | None:
@@ -68,13 +72,24 @@ class OnDemandFrames:
 
     def request(self) -> None:
         """Ask for a frame of the current state, unless one is on its way (or the service is not up)."""
-        if self._pending is not None or not self.client.service_is_ready():
+        if self._pending is not None and time.monotonic() - self._asked_at < REQUEST_TIMEOUT:
             return
+        if not self.client.service_is_ready():
+            return
+        if self._pending is not None:      # unanswered: the camera that had it is gone
+            self.client.remove_pending_request(self._pending)
         self.requests += 1
-        self._pending = self.client.call_async(GetCameraFrame.Request(with_labels=True))
-        self._pending.add_done_callback(self._on_response)
+        self._asked_at = time.monotonic()
+        self._pending = pending = self.client.call_async(GetCameraFrame.Request(with_labels=True))
+        pending.add_done_callback(lambda future: self._on_response(pending, future))
 
-    def _on_response(self, future) -> None:
+    def forget(self) -> None:
+        """Drop the frame kept (its clock went back: a restarted simulation; its stamp would look new)."""
+        self.response = self._stamp = self._geometry = None
+
+    def _on_response(self, pending, future) -> None:
+        if pending is not self._pending:
+            return                          # a request given up
         self._pending = None
         response = future.result()
         if response is None:
@@ -135,6 +150,12 @@ class CameraInput:
             self.node.get_logger().info(f'camera {self.ns}: using the image stream ({reason})')
         self.frames = None
         self.camera = TopCamera(self.node, self.ns, with_labels=True, transport=self.transport)
+
+    def forget_frames(self) -> None:
+        """The node's clock went back (a restarted simulation): frames asked for are dropped (a streamed
+        camera's newest frame is replaced by the next one anyway)."""
+        if self.frames is not None:
+            self.frames.forget()
 
     @property
     def on_demand(self) -> bool:

@@ -13,17 +13,24 @@ A frame is used only when perception accepts it as evidence (sgcm.core.perceptio
 he looks again, and after ``perception_fault_after`` s of rejected frames he logs a perception
 fault (once per round) and keeps looking: the leader's follower timeout ends the round. Malformed
 guidance (a field, an invalid stamp) is dropped, counted and logged once per kind
-(collab_tools.input_guard).
+(collab_tools.input_guard), and so is guidance that is not from the current session of his leader
+(another sender, an ended session, a round out of order or far ahead, a task end of another
+session: sgcm.core.sessions). A restarted leader (a new session that begins) is followed from its
+first round; a restarted follower joins the session under way. His reports carry his name, his
+session and the leader session they answer.
+
+A move whose goal gets no result (the bridge crashed) is given up (sgcm.arm_client: a timeout and
+server loss, on the steady clock) and reported as not done. When the simulated clock goes back (a
+restarted or reset simulation) the settling restarts from the new time and older frames are dropped.
 
 Parameters: sgcm.core.settings.FOLLOWER_SETTINGS. Dynamic: settle_time (applied to the round in
-progress), perception_fault_after (at once). The behaviour and its deviations define the experiment's follower and stay as
-started (read-only).
+progress), perception_fault_after (at once), arm_goal_timeout and arm_server_lost_after (sgcm.arm_client,
+also to the goal out). The behaviour and its deviations define the experiment's follower and stay as
+started (read-only), as do leader and max_round_jump.
 """
 
 import sys
 
-from bridge_interfaces.action import PickAndPlace
-from rclpy.action import ActionClient
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
@@ -36,11 +43,13 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
+from .arm_client import ArmClient
 from .camera_input import CameraInput
 from .core.follower_behaviour import Follower, FollowerChoice
 from .core.follower_rounds import FollowerPhase, FollowerRounds, HeardGuidance
 from .core.perception_check import PerceptionCheck
 from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
+from .core.sessions import FollowedLeader, Followed, new_session
 from .core.settings import FOLLOWER_SETTINGS, FollowerExecutorSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, action_from_msg, counts_from_msg, move_msg, \
     pick_and_place_goal
@@ -64,7 +73,10 @@ class FollowerExecutor(Node):
         self.fault_round = None          # the round a perception fault was logged for
         self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
                                   params=params)
-        self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
+        self.arm = ArmClient(self, params)
+        self.session = new_session()
+        self.leader = FollowedLeader(self.names.team(values['leader']), values['max_round_jump'])
+        self.clock_seen = None           # the newest time of the node's clock seen: going back = a restart
         self.report_pub = self.create_publisher(FollowerReport, self.names.team(FOLLOWER_REPORT), RELIABLE)
         self.inputs = InputGuard.of(self)
         self.inputs.subscribe(Guidance, self.names.team(GUIDANCE), self._on_guidance, RELIABLE)
@@ -74,7 +86,8 @@ class FollowerExecutor(Node):
         follower = settings.follower
         self.get_logger().info(f'arm {self.names.robot}, behaviour {follower.behaviour}'
                                + (f', deviation p={follower.deviation_probability}, rounds '
-                                  f'{list(follower.deviation_rounds)}' if follower.behaviour == 'random' else ''))
+                                  f'{list(follower.deviation_rounds)}' if follower.behaviour == 'random' else '')
+                               + f'; session {self.session:#x}, follows {self.leader.leader}')
 
     def _set_settle_time(self, value: float) -> None:
         self.settle = Duration(seconds=float(value))
@@ -84,28 +97,56 @@ class FollowerExecutor(Node):
 
     # --- events for the core's rounds ------------------------------------------------
     def _on_guidance(self, msg: Guidance) -> None:
-        if msg.task_complete or msg.status:
+        final = bool(msg.task_complete or msg.status)
+        try:
+            stamp = self.inputs.stamp(msg.header.stamp)
+            if not final:
+                round_state = counts_from_msg(self.task, msg.state)
+                leader_action = action_from_msg(self.model, LEADER, msg.leader_move, 'leader_move')
+                recommended = action_from_msg(self.model, FOLLOWER, msg.recommended_follower_move,
+                                              'recommended_follower_move')
+        except ValueError as error:   # counted and logged once per kind by the guard
+            raise MalformedInput(f'dropped malformed guidance for round {msg.round}: {error}',
+                                 kind=error_kind(error)) from None
+        # Not from the current session of his leader: MalformedInput, counted and logged by the guard.
+        followed = self.leader.check(msg.sender, msg.session, msg.round, final)
+        if followed.new_session:
+            self._session_changed(followed, msg.round)
+        if final:
             self.get_logger().info(f'the leader ended the task: {msg.status or "goal reached"}')
             self.rounds.task_ended()
             if not self.finished.done():
                 self.finished.set_result(True)
             return
-        if msg.round <= self.rounds.last_round:
-            return  # already handled (duplicate)
-        try:
-            stamp = self.inputs.stamp(msg.header.stamp)
-            round_state = counts_from_msg(self.task, msg.state)
-            leader_action = action_from_msg(self.model, LEADER, msg.leader_move, 'leader_move')
-            recommended = action_from_msg(self.model, FOLLOWER, msg.recommended_follower_move,
-                                          'recommended_follower_move')
-        except ValueError as error:   # counted and logged once per kind by the guard
-            raise MalformedInput(f'dropped malformed guidance for round {msg.round}: {error}',
-                                 kind=error_kind(error)) from None
-        # The settling is counted from the guidance's stamp when the frame is checked, so a
-        # settle_time set meanwhile applies to this round too.
-        self.rounds.guidance_heard(HeardGuidance(msg.round, stamp, round_state, leader_action, recommended))
+        # Settling counts from the guidance's stamp when the frame is checked (a settle_time set meanwhile
+        # applies to this round too); a stamp ahead of his clock (a clock that went back) counts from now.
+        stamp = min(stamp, self.get_clock().now())
+        self.rounds.guidance_heard(HeardGuidance(msg.round, stamp, round_state, leader_action, recommended,
+                                                 msg.session))
+
+    def _session_changed(self, followed: Followed, round_number: int) -> None:
+        if followed.replaced is None:
+            self.get_logger().info(f'following the leader\'s session {followed.session:#x} from round {round_number}')
+        else:
+            self.get_logger().warning(f'the leader\'s session changed ({followed.replaced:#x} -> '
+                                      f'{followed.session:#x}, a restarted leader): rounds count from {round_number}')
+        self.rounds.session_changed()
+        self.look_again = None
+
+    def _clock_went_back(self) -> bool:
+        now = self.get_clock().now()
+        back = self.clock_seen is not None and now < self.clock_seen - Duration(seconds=0.5)
+        if back:
+            self.get_logger().warning(f'the clock went back ({self.clock_seen.nanoseconds / 1e9:.1f} s -> '
+                                      f'{now.nanoseconds / 1e9:.1f} s: a restarted simulation); settling anew')
+            self.rounds.clock_went_back(now)
+            self.camera.forget_frames()
+            self.look_again = None
+        self.clock_seen = now
+        return back
 
     def _tick(self) -> None:
+        self._clock_went_back()
         if self.rounds.phase is not FollowerPhase.SETTLING:
             return
         settled = self.rounds.pending.stamp + self.settle
@@ -143,18 +184,13 @@ class FollowerExecutor(Node):
         except ValueError as error:
             self.rounds.move_done(False, f'{error}: no effect')
             return
-        self.arm.send_goal_async(goal).add_done_callback(self._on_goal_response)
+        self.arm.send(goal, self.rounds.move_done)
 
-    def _on_goal_response(self, future) -> None:
-        handle = future.result()
-        if not handle.accepted:
-            self.rounds.move_done(False, 'the arm rejected the move')
-            return
-        handle.get_result_async().add_done_callback(
-            lambda f: self.rounds.move_done(bool(f.result().result.success), f.result().result.message))
-
-    def report(self, round_number: int, choice: FollowerChoice, succeeded: bool, message: str) -> None:
-        report = FollowerReport(round=round_number, behaviour=self.settings.follower.behaviour,
+    def report(self, round_number: int, choice: FollowerChoice, succeeded: bool, message: str,
+               leader_session: int = 0) -> None:
+        report = FollowerReport(sender=self.get_fully_qualified_name(), session=self.session,
+                                leader_session=leader_session, round=round_number,
+                                behaviour=self.settings.follower.behaviour,
                                 move=move_msg(self.model, FOLLOWER, choice.action), deviated=choice.deviated,
                                 succeeded=succeeded, message=message)
         report.header.stamp = self.get_clock().now().to_msg()

@@ -17,18 +17,25 @@ A frame is used only when perception accepts it as evidence (sgcm.core.perceptio
 cube of the camera's legend seen in the grid); else the last good state stays, the camera is
 asked again, and after ``perception_fault_after`` s of rejected frames the task ends with a
 perception fault (status ``perception fault: ...``, exit code 1). Malformed reports are dropped,
-counted and logged once per kind (collab_tools.input_guard).
+counted and logged once per kind (collab_tools.input_guard), and so are reports from another
+sender than her follower or to another leader session than hers (sgcm.core.sessions). Her
+guidance carries her name and her session, a random id drawn at start: a restarted leader is a
+new session, which the follower follows from its round 1.
+
+A move whose goal gets no result (the bridge crashed) is given up (sgcm.arm_client: a timeout and
+server loss, on the steady clock) and announced as not done; she plans the next round from the
+table she sees once the arm and the camera are back. When the simulated clock goes back (a
+restarted or reset simulation) her waits restart from the new time and older frames are dropped.
 
 Parameters: sgcm.core.settings.LEADER_SETTINGS. Dynamic ones (applied from the next decision
 that uses them): horizon, round_limit, follower_timeout (also to the wait in progress),
-settle_time (also to the settling in progress), perception_fault_after (at once).
+settle_time (also to the settling in progress), perception_fault_after (at once),
+arm_goal_timeout and arm_server_lost_after (sgcm.arm_client; also to the goal out).
 """
 
 import sys
 
 import numpy as np
-from bridge_interfaces.action import PickAndPlace
-from rclpy.action import ActionClient
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
@@ -40,12 +47,14 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
+from .arm_client import ArmClient
 from .camera_input import CameraInput
 from .core.fse_compiled import make_planner
 from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
 from .core.leader_rounds import LeaderPhase, LeaderRounds
 from .core.perception_check import PerceptionCheck
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
+from .core.sessions import FollowerReports, new_session
 from .core.settings import LEADER_SETTINGS, LeaderSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
 
@@ -76,7 +85,10 @@ class LeaderPlanner(Node):
 
         self.camera = CameraInput(self, self.task, self.names.team(settings.camera), settings.image_transport,
                                   params=params)
-        self.arm = ActionClient(self, PickAndPlace, 'pick_and_place')
+        self.arm = ArmClient(self, params)
+        self.session = new_session()
+        self.follower = FollowerReports(self.names.team(values['follower']), self.session)
+        self.clock_seen = None           # the newest time of the node's clock seen: going back = a restart
         self.guidance_pub = self.create_publisher(Guidance, self.names.team(GUIDANCE), RELIABLE)
         self.inputs = InputGuard.of(self)
         self.inputs.subscribe(FollowerReport, self.names.team(FOLLOWER_REPORT), self._on_report, RELIABLE)
@@ -89,7 +101,7 @@ class LeaderPlanner(Node):
         self.get_logger().info(
             f'arm {self.names.robot}, strategy {self.strategy}, horizon T={self.leader.planner.horizon}, '
             f'planner {settings.planner}, solver {settings.solver}, {self.task.rows}x{self.task.cols} grid, '
-            f'colours {", ".join(self.task.colours)}')
+            f'colours {", ".join(self.task.colours)}; session {self.session:#x}')
 
     # --- dynamic parameters ----------------------------------------------------------
     def _set_horizon(self, value: int) -> None:
@@ -110,7 +122,19 @@ class LeaderPlanner(Node):
         self.perception.fault_after = float(value)
 
     # --- events for the core's rounds ------------------------------------------------
+    def _clock_went_back(self) -> None:
+        now = self.get_clock().now()
+        if self.clock_seen is not None and now < self.clock_seen - Duration(seconds=0.5):
+            self.get_logger().warning(f'the clock went back ({self.clock_seen.nanoseconds / 1e9:.1f} s -> '
+                                      f'{now.nanoseconds / 1e9:.1f} s: a restarted simulation); waits restart now')
+            self.guidance_time = now if self.guidance_time is not None else None
+            self.round_ended = now if self.round_ended is not None else None
+            self.look_again = None
+            self.camera.forget_frames()
+        self.clock_seen = now
+
     def _tick(self) -> None:
+        self._clock_went_back()
         phase = self.rounds.phase
         if phase is LeaderPhase.OBSERVING:
             self._observe()
@@ -159,6 +183,11 @@ class LeaderPlanner(Node):
 
     def _on_report(self, msg: FollowerReport) -> None:
         self.inputs.stamp(msg.header.stamp)     # an invalid stamp: dropped, counted, logged by the guard
+        # Not her follower's, or to another session of hers: MalformedInput, counted and logged by the guard.
+        previous = self.follower.check(msg.sender, msg.session, msg.leader_session)
+        if previous is not None:
+            self.get_logger().warning(f'the follower\'s session changed ({previous:#x} -> {msg.session:#x}): '
+                                      'he restarted')
         # A late or duplicate report (for a round that is over) is ignored by the core.
         if self.rounds.follower_reported(msg.round, not msg.move.empty, bool(msg.succeeded), msg.behaviour):
             self.round_ended = self.get_clock().now()
@@ -172,30 +201,21 @@ class LeaderPlanner(Node):
             self.get_logger().error(f'round {turn.round}: {error}')
             self.rounds.move_done(False)
             return
-        self.arm.send_goal_async(goal_msg).add_done_callback(self._on_goal_response)
+        self.arm.send(goal_msg, self._on_arm_done)
 
-    def _on_goal_response(self, future) -> None:
-        handle = future.result()
-        if not handle.accepted:
-            self.get_logger().error(f'round {self.rounds.turn.round}: the arm rejected the move')
-            self.rounds.move_done(False)
-            return
-        handle.get_result_async().add_done_callback(self._on_result)
-
-    def _on_result(self, future) -> None:
-        result = future.result().result
-        if not result.success:
-            self.get_logger().info(f'round {self.rounds.turn.round}: leader move not done: {result.message}')
-        self.rounds.move_done(bool(result.success))
+    def _on_arm_done(self, success: bool, message: str) -> None:
+        if not success:
+            self.get_logger().info(f'round {self.rounds.turn.round}: leader move not done: {message}')
+        self.rounds.move_done(success)
 
     def announce(self, turn: LeaderTurn, succeeded: bool) -> None:
         if turn.action == EMPTY:
             self._log_turn(turn)
         plan = turn.plan
         recommended = EMPTY if turn.recommended is None else turn.recommended
-        msg = Guidance(round=turn.round, horizon=self.leader.planner.horizon, strategy=self.strategy,
-                       state=grid_state_msg(self.task, turn.state),
-                       leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
+        msg = Guidance(sender=self.get_fully_qualified_name(), session=self.session, round=turn.round,
+                       horizon=self.leader.planner.horizon, strategy=self.strategy,
+                       state=grid_state_msg(self.task, turn.state), leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
                        recommended_follower_move=move_msg(self.model, FOLLOWER, recommended))
         msg.header.stamp = self.get_clock().now().to_msg()
         if plan is not None:
@@ -209,7 +229,8 @@ class LeaderPlanner(Node):
         self.guidance_time = self.get_clock().now()
 
     def finish(self, end: TaskEnd) -> None:
-        msg = Guidance(round=end.rounds, horizon=self.leader.planner.horizon, strategy=self.strategy,
+        msg = Guidance(sender=self.get_fully_qualified_name(), session=self.session, round=end.rounds,
+                       horizon=self.leader.planner.horizon, strategy=self.strategy,
                        state=grid_state_msg(self.task, end.state), leader_move=move_msg(self.model, LEADER, EMPTY),
                        leader_move_succeeded=True,
                        recommended_follower_move=move_msg(self.model, FOLLOWER, EMPTY),

@@ -168,8 +168,9 @@ class FollowerPort:
     def execute(self, number, choice):
         self.effects.append(('execute', number, choice.action))
 
-    def report(self, number, choice, succeeded, message):
+    def report(self, number, choice, succeeded, message, leader_session=0):
         self.effects.append(('report', number, choice.action, succeeded, message))
+        self.sessions = getattr(self, 'sessions', []) + [leader_session]
 
 
 def test_follower_rounds_report_every_round_once(model, cases):

@@ -1,11 +1,12 @@
 """Pure-Python core of Stackelberg guided collaborative manipulation (no ROS, no simulator).
 
-Paper: "Stackelberg Guided Collaborative Manipulation" (SGCM; ``shared/papers/stackelberg_guidance_sgcm.txt``):
-a leader arm (she, more actions, plans ahead) guides a follower arm (he, fewer actions, myopic)
-through a multi-object rearrangement task by solving a feedback Stackelberg equilibrium (FSE) over
-a rolling horizon and recommending his move. The experiments (Table I, Fig. 4, Fig. 5) are in
-``sgcm/experiments/``; the two ROS nodes (leader_planner, follower_executor) drive the classes
-named below.
+Paper: Y. Zhao, B. Huang, J. Yu and Q. Zhu, "Stackelberg Strategic Guidance for Heterogeneous Robots
+Collaboration" (short name ``stackelberg_guidance_sgcm``; the reference is in CITATION.cff). In its
+framework, Stackelberg Guided Collaborative Manipulation (SGCM), a leader arm (she, more actions, plans
+ahead) guides a follower arm (he, fewer actions, myopic) through a multi-object rearrangement task by
+solving a feedback Stackelberg equilibrium (FSE) over a rolling horizon and recommending his move.
+The experiments (Table I, Fig. 4, Fig. 5) are in ``sgcm/experiments/``; the two ROS nodes
+(leader_planner, follower_executor) drive the classes named below.
 
 Where the paper is implemented
 ------------------------------
@@ -77,6 +78,12 @@ frame shows every cube of the legend in         PerceptionCheck: rejected frames
 the grid, or it is not used)                    perception fault)
 The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
                                                 LeaderSettings, FollowerExecutorSettings)
+Who a message is from (ours): sender and       sessions (new_session, FollowedLeader: the
+session of each node, the follower following    follower's rules; FollowerReports: the leader's);
+the current session of his leader               round_log (rounds_in_order: a recording's rounds
+                                                across a restarted leader)
+An arm goal the crashed bridge never answers    arm_goal (GoalWatch: timeout, server loss)
+(ours)
 Table I, Fig. 4, Fig. 5 experiments             sgcm.experiments (table1, disturbance)
 Fig. 1 set-up watched live (ours)               markers (SgcmMarkers: grid, estimate, moves)
 ==============================================  ====================================================

@@ -12,11 +12,13 @@ into these calls):
 * ``EXECUTING`` -- :meth:`move_done` with the arm's outcome: ``report``; the next round's guidance
   may have come meanwhile (then ``SETTLING`` again, else ``WAITING``).
 
-He hears only the leader (one-way communication) and reports every round he handled.
+He hears only the leader (one-way communication) and reports every round he handled, to the
+leader session it came from. Which guidance is the leader's, and when her session changed (she
+restarted: :meth:`session_changed`, the round ordering restarts), is sgcm.core.sessions.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any, Protocol
 
@@ -42,6 +44,7 @@ class HeardGuidance:
     round_state: np.ndarray     # the state at the round's start, as the leader estimated it
     leader_action: int
     recommended: int
+    session: int = 0            # the leader session it came from (sgcm.core.sessions); the report goes back to it
 
 
 class FollowerPort(Protocol):
@@ -50,8 +53,9 @@ class FollowerPort(Protocol):
     def execute(self, round_number: int, choice: FollowerChoice) -> None:
         """Send his (non-empty) move to the arm; the node answers with :meth:`FollowerRounds.move_done`."""
 
-    def report(self, round_number: int, choice: FollowerChoice, succeeded: bool, message: str) -> None:
-        """Tell the leader the round is over and what he did."""
+    def report(self, round_number: int, choice: FollowerChoice, succeeded: bool, message: str,
+               leader_session: int = 0) -> None:
+        """Tell the leader (her session ``leader_session``) the round is over and what he did."""
 
 
 class FollowerRounds:
@@ -63,7 +67,7 @@ class FollowerRounds:
         self.phase = FollowerPhase.WAITING
         self.last_round = 0
         self.pending: HeardGuidance | None = None       # guidance of a round not yet handled
-        self._executing: tuple[int, FollowerChoice] | None = None
+        self._executing: tuple[HeardGuidance, FollowerChoice] | None = None
 
     def guidance_heard(self, guidance: HeardGuidance) -> bool:
         """A round's guidance; False when that round was already heard (a duplicate or a late copy)."""
@@ -74,6 +78,20 @@ class FollowerRounds:
         if self.phase is FollowerPhase.WAITING:
             self.phase = FollowerPhase.SETTLING
         return True
+
+    def session_changed(self) -> None:
+        """The leader's session changed (she restarted): rounds count from 0 again, and a round of the old
+        session not yet started is dropped (a move in progress finishes and is reported to the old one)."""
+        self.last_round = 0
+        self.pending = None
+        if self.phase is FollowerPhase.SETTLING:
+            self.phase = FollowerPhase.WAITING
+
+    def clock_went_back(self, now: Any) -> None:
+        """The node's clock went back (a restarted simulation): a round waiting for the table settles from
+        ``now``, not from a stamp the new clock would reach only later."""
+        if self.pending is not None and self.pending.stamp > now:
+            self.pending = replace(self.pending, stamp=now)
 
     def task_ended(self) -> None:
         self.phase = FollowerPhase.DONE
@@ -87,10 +105,10 @@ class FollowerRounds:
                                       guidance.recommended)
         if choice.action == EMPTY:
             self._next()
-            self.port.report(guidance.round, choice, True, 'no move')
+            self.port.report(guidance.round, choice, True, 'no move', guidance.session)
         else:
             self.phase = FollowerPhase.EXECUTING
-            self._executing = (guidance.round, choice)
+            self._executing = (guidance, choice)
             self.port.execute(guidance.round, choice)
         return choice
 
@@ -98,9 +116,9 @@ class FollowerRounds:
         """His arm finished (or refused, or could not be given) the move."""
         if self.phase is not FollowerPhase.EXECUTING:
             return
-        (number, choice), self._executing = self._executing, None
+        (guidance, choice), self._executing = self._executing, None
         self._next()
-        self.port.report(number, choice, succeeded, message)
+        self.port.report(guidance.round, choice, succeeded, message, guidance.session)
 
     def _next(self) -> None:
         self.phase = FollowerPhase.SETTLING if self.pending is not None else FollowerPhase.WAITING

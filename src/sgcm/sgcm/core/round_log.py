@@ -5,10 +5,19 @@ the abstract game (see episode.py).
 Input per round, in order: the leader's guidance (round state as she estimated it from
 the camera, her move and its outcome) and the follower's report (his move and outcome);
 the end of the task is the guidance with ``task_complete`` or a ``status``.
+
+Rounds are numbered within a leader session (sgcm.core.sessions): a leader that restarted
+begins again at round 1. :func:`rounds_in_order` puts a recording's rounds in the order they
+were played -- sessions in the order they first appear, rounds in order within each, a report
+paired with the round of the session it answers -- and keeps only the messages of the sender
+that ended the task (a forged or stray publisher on the topic is not part of the episode).
+Recordings from before sessions existed (no ``session`` fields) read as one session.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -63,3 +72,26 @@ def episode_from_log(model: RearrangementModel, method: str, rounds: list[Logged
             planning_seconds=logged.planning_seconds, next_state=np.asarray(next_state).tolist()))
     return EpisodeResult(method, completed=complete, stuck=stuck, rounds=len(rounds), records=records,
                          final_state=np.asarray(final_state).tolist())
+
+
+def is_final(guidance: Any) -> bool:
+    """The guidance that ends the task."""
+    return bool(guidance.task_complete or guidance.status)
+
+
+def rounds_in_order(guidance: Iterable[Any], reports: Iterable[Any]) -> tuple[list[tuple[Any, Any]], Any]:
+    """([(round guidance, its report or None)] in the order played, the final guidance or None); see the
+    module docstring. Messages are Guidance / FollowerReport as recorded (ROS or bag objects)."""
+    guidance = list(guidance)
+    finals = [g for g in guidance if is_final(g)]
+    final = finals[-1] if finals else None
+    leader = getattr(final, 'sender', '') if final is not None else ''
+    sessions: dict[int, dict[int, Any]] = {}          # in the order of first appearance
+    for g in guidance:
+        if is_final(g) or (leader and getattr(g, 'sender', '') != leader):
+            continue
+        sessions.setdefault(getattr(g, 'session', 0), {})[g.round] = g
+    answered = {(getattr(r, 'leader_session', 0), r.round): r for r in reports}
+    rounds = [(rounds_of[number], answered.get((session, number)))
+              for session, rounds_of in sessions.items() for number in sorted(rounds_of)]
+    return rounds, final

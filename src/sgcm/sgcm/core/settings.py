@@ -19,6 +19,7 @@ from .follower_behaviour import BEHAVIOURS, FollowerSettings
 from .fse_compiled import PLANNER_PATHS
 from .leader_round import STRATEGIES
 from .perception_check import FAULT_AFTER
+from .sessions import MAX_ROUND_JUMP
 from .stage_game import SOLVERS
 from .task_config import MAX_HORIZON, TaskConfig, TaskConfigError, load_task
 
@@ -29,6 +30,13 @@ IMAGE_TRANSPORTS = ('raw', 'compressed')
 
 def _camera_problem(value: str) -> str | None:
     return None if value.strip('/') else "must name the camera's namespace (got '')"
+
+
+def _node_name_problem(value: str) -> str | None:
+    tokens = value.split('/')
+    if value and all(t and (t[0].isalpha() or t[0] == '_') and t.replace('_', '').isalnum() for t in tokens):
+        return None
+    return f"must be a node's name under the team namespace, like leader_arm/leader_planner (got {value[:80]!r})"
 
 
 #: Settings both nodes have, in the order they are declared.
@@ -65,6 +73,8 @@ LEADER_SETTINGS = SettingsSchema(
             'false: a state that comes back after rounds without chance ends the task as stuck '
             '(sgcm.core.stuck_rule; a round with both arms idle ends it either way)'),
     PERCEPTION_FAULT_AFTER,
+    Setting('follower', 'follower_arm/follower_executor', "the follower's node, under the team namespace: "
+            'reports from any other sender are refused (sgcm.core.sessions)', check=_node_name_problem),
     Setting('exit_when_done', True, 'exit the node when the task has ended'),
 )
 
@@ -81,6 +91,11 @@ FOLLOWER_SETTINGS = SettingsSchema(
     Setting('settle_time', 0.5, 'sim seconds after the guidance before observing the table (applied to the '
             'round in progress)', low=0.0, dynamic=True),
     PERCEPTION_FAULT_AFTER,
+    Setting('leader', 'leader_arm/leader_planner', "the leader's node, under the team namespace: guidance from "
+            'any other sender is refused (sgcm.core.sessions)', check=_node_name_problem),
+    Setting('max_round_jump', MAX_ROUND_JUMP, 'rounds a guidance may run ahead of the last one heard in its '
+            "session, and the highest round a new session of the leader may begin with (a restarted leader's "
+            'first is 1): a forged round 2^32-1 is refused (sgcm.core.sessions)', low=1, high=1000),
     Setting('exit_when_done', True, 'exit when the leader announces the end of the task'),
 )
 

@@ -19,6 +19,8 @@ from collab_tools.core.bag_analysis import BagSummary, read_messages  # noqa: E4
 from collab_tools.core.report_plots import register_plot  # noqa: E402
 from collab_tools.core.run_outcome import Outcome, register_outcome  # noqa: E402
 
+from ..core.round_log import rounds_in_order  # noqa: E402
+
 GUIDANCE_TYPE = 'sgcm_interfaces/msg/Guidance'
 
 
@@ -27,17 +29,14 @@ def _move_text(move) -> str:
 
 
 def _read_rounds(bag: Path):
-    """(guidance of every round, follower reports by round, the final guidance or None)."""
-    guidance, reports, final = [], {}, None
+    """(guidance of every round in the order played, follower reports by position in it, the final guidance
+    or None); a restarted leader's rounds follow her earlier ones (sgcm.core.round_log.rounds_in_order)."""
+    guidance, reports = [], []
     for topic, _, msg in read_messages(bag, ['/sgcm/guidance', '/sgcm/follower_report']):
-        if topic == '/sgcm/guidance':
-            if msg.task_complete or msg.status:
-                final = msg
-            else:
-                guidance.append(msg)
-        else:
-            reports[msg.round] = msg
-    return guidance, reports, final
+        (guidance if topic == '/sgcm/guidance' else reports).append(msg)
+    played, final = rounds_in_order(guidance, reports)
+    return [g for g, _ in played], {index: r for index, (_, r) in enumerate(played, start=1) if r is not None}, \
+        final
 
 
 def sgcm_outcome(bag: Path, summary: BagSummary) -> Outcome | None:
@@ -68,7 +67,7 @@ def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path
     guidance, reports, final = _read_rounds(bag)
     if not guidance:
         return []
-    rounds = [g.round for g in guidance]
+    rounds = list(range(1, len(guidance) + 1))     # in the order played (a restarted leader counts again)
     fig, (values, timing, timeline) = plt.subplots(3, 1, figsize=(9, 9), sharex=True,
                                                    gridspec_kw={'height_ratios': [2, 1, 2]})
     if any(g.strategy == 'sgcm' for g in guidance):
@@ -82,17 +81,17 @@ def plot_sgcm_rounds(bag: Path, summary: BagSummary, out_dir: Path) -> list[Path
     timing.bar(rounds, [g.planning_seconds * 1e3 for g in guidance])
     timing.set_ylabel('planning (ms)')
     timing.grid(alpha=0.3)
-    for g in guidance:
+    for number, g in zip(rounds, guidance):
         leader = _move_text(g.leader_move) + ('' if g.leader_move_succeeded else ' (failed)')
-        report = reports.get(g.round)
+        report = reports.get(number)
         if report is None:
             follower = 'no report'
         else:
             follower = _move_text(report.move) + ('' if report.succeeded or report.move.empty else ' (no effect)')
             if report.deviated:
                 follower += f' [deviated; advised {_move_text(g.recommended_follower_move)}]'
-        timeline.text(g.round, 1.0, leader, ha='center', va='center', fontsize=7, rotation=20)
-        timeline.text(g.round, 0.0, follower, ha='center', va='center', fontsize=7, rotation=20,
+        timeline.text(number, 1.0, leader, ha='center', va='center', fontsize=7, rotation=20)
+        timeline.text(number, 0.0, follower, ha='center', va='center', fontsize=7, rotation=20,
                       color='tab:red' if report is not None and report.deviated else 'black')
     timeline.set_yticks([0.0, 1.0], ['follower', 'leader'])
     timeline.set_ylim(-0.7, 1.7)

@@ -19,7 +19,7 @@ from collab_tools.orchestration.experiment import SessionRunResult, run_experime
 from ..core.episode import EpisodeResult
 from ..core.follower_behaviour import FollowerSettings
 from ..core.rearrangement import FOLLOWER, LEADER, RearrangementModel
-from ..core.round_log import LoggedRound, episode_from_log
+from ..core.round_log import LoggedRound, episode_from_log, rounds_in_order
 from ..core.scenario_builder import build_scenario
 from ..core.task_config import Case, TaskConfig, task_of, task_yaml
 from ..ros_conversions import FOLLOWER_REPORT, GUIDANCE as GUIDANCE_TOPIC, action_from_msg
@@ -68,21 +68,14 @@ def episode_from_bag(model: RearrangementModel, bag: Path, method: str,
     def action(robot, move):  # the bag's messages have the same fields as the ROS ones
         return action_from_msg(model, robot, move)
 
-    guidance, reports, final = {}, {}, None
+    guidance, reports = [], []
     for topic, _, msg in read_messages(bag, [guidance_topic, report_topic]):
-        if topic == guidance_topic:
-            if msg.task_complete or msg.status:
-                final = msg
-            else:
-                guidance[msg.round] = msg
-        else:
-            reports[msg.round] = msg
+        (guidance if topic == guidance_topic else reports).append(msg)
+    played, final = rounds_in_order(guidance, reports)   # a restarted leader's rounds after her earlier ones
     if final is None:
         raise ValueError(f'{bag}: no final guidance (the leader did not end the task)')
     rounds = []
-    for number in sorted(guidance):
-        g = guidance[number]
-        report = reports.get(number)
+    for number, (g, report) in enumerate(played, start=1):
         rounds.append(LoggedRound(
             round=number, state=np.array(g.state.counts, dtype=np.int64),
             leader_action=action(LEADER, g.leader_move), leader_succeeded=bool(g.leader_move_succeeded),
