@@ -148,7 +148,7 @@ def test_robot_without_localisation_forms_its_least_cost_coalition(session, file
     # /<teammate>/coalition and reading its inbox) before team_wait ran out.
     assert 'starting anyway' not in leader_log.read_text()
     deadline = time.monotonic() + 10.0  # the log is written by another process
-    while 'dropped malformed channel message' not in leader_log.read_text():
+    while 'dropped a malformed message on /coalition/channel' not in leader_log.read_text():
         assert time.monotonic() < deadline, 'the malformed message was not reported by the leader'
         time.sleep(0.1)
     started, formed = (t.sec + t.nanosec * 1e-9 for t in (leader.search_started, leader.coalition_formed))

@@ -24,7 +24,8 @@ The node is ``schema_agent`` in its robot's namespace (``/<robot>/schema_agent``
 :class:`~.core.cooperative_work.CooperativeWork` queue, shared by the agents of a
 schema_agent_host) so the channel, timers and sensor reports are served in between.
 
-Malformed channel messages and sensor reports are logged and dropped; bad parameters exit 2.
+Every callback goes through the InputGuard (malformed input dropped, counted, logged once per kind); dead
+and restarted teammates: :mod:`.core.teammate_faults`. Bad parameters exit 2.
 """
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ from bridge_interfaces.srv import SetSensorActive
 from builtin_interfaces.msg import Time
 from coalition_interfaces.msg import AgentStatus, CoalitionCommitment
 from collab_tools import qos
+from collab_tools.input_guard import InputGuard, MalformedInput
 from collab_tools.names import RobotNode
 from collab_tools.node_support import ConfigurationError, run
 from collab_tools.parameters import NodeParameters
@@ -117,9 +119,9 @@ class SchemaAgentNode(Node):
             trigger = self.create_guard_condition(lambda: self.work.run())
             self.work = CooperativeWork(trigger.trigger, 2 * settings['reasoning_slice'], self._step_failed)
         self.channel = AgentChannel(self, self.robot, ChannelCodec.for_team(settings.library, agent.team),
-                                    settings.link, team=agent.team, on_message=self._on_message,
-                                    policy=settings.retry, work=self.work, topic=self.names.team(CHANNEL_TOPIC),
-                                    hub=hub)
+                                    settings.link, team=agent.team, on_message=self._on_message, policy=settings.retry,
+                                    work=self.work, topic=self.names.team(CHANNEL_TOPIC), hub=hub, liveness=settings.liveness(),
+                                    watched=lambda: self.lifecycle.watched_teammates(), on_teammate=self._on_teammate)
         self.finished = Future()
         self.lifecycle = AgentLifecycle(agent, settings, self, self.channel)
         # Per-robot names are relative (this node's namespace is its robot's).
@@ -127,17 +129,17 @@ class SchemaAgentNode(Node):
         self.sensor_client = self.create_client(SetSensorActive, 'set_sensor_active')
         self._pending_switches: list[tuple[str, bool]] = []
         self._retrieved: dict[str, tuple] = {}  # sensor -> the instances of its last report
+        inputs = InputGuard.of(self)  # every callback: malformed input dropped, counted, logged once per kind
         for sensor in settings.team[self.robot].sensor_names:
             topic, msg_type = SENSOR_TOPICS[sensor]
-            self.create_subscription(msg_type, topic, lambda msg, sensor=sensor: self._on_sensor(sensor, msg),
-                                     qos.SENSOR_IN)
+            inputs.subscribe(msg_type, topic, lambda msg, sensor=sensor: self._on_sensor(sensor, msg), qos.SENSOR_IN)
         self.cmd_pub = self.create_publisher(Twist, 'cmd_vel', qos.COMMAND_OUT) if settings['drive'] else None
         self.stream_timer = self.create_timer(1.0 / settings['stream_rate'],
                                               lambda: self.lifecycle.on_stream_timer(self._now()))
         self._streaming = True  # until the first status says what it holds
         for name in settings['exit_after']:
-            self.create_subscription(AgentStatus, self.names.teammate(name, 'coalition'),
-                                     lambda msg, name=name: self._on_teammate_status(name, msg), qos.LATCHED)
+            inputs.subscribe(AgentStatus, self.names.teammate(name, 'coalition'),
+                             lambda msg, name=name: self._on_teammate_status(name, msg), qos.LATCHED)
         self.tick_timer = self.create_timer(settings['tick_period'], self._tick)
         self.lifecycle.publish()
         self.get_logger().info(f"{self.robot}: task {settings.task_name}, team {', '.join(agent.team)}, "
@@ -213,27 +215,25 @@ class SchemaAgentNode(Node):
     def _on_sensor(self, sensor: str, msg) -> None:
         if sensor not in self.agent.active_sensors:
             return  # a report published before we switched it off
-        try:
-            detected, values = sensor_values(sensor, msg)
-            found = self.agent.sensing.report(sensor, self._now(), detected, values)
-            if self._retrieved.get(sensor) != found:  # new information: reason now, not at the next tick
-                self._retrieved[sensor] = found
-                self.request_reasoning()
-        except (CoalitionError, ValueError) as exc:
-            self.get_logger().warning(f'{self.robot}: dropped a malformed {sensor} report: {exc}',
-                                      throttle_duration_sec=5.0)
+        detected, values = sensor_values(sensor, msg)  # malformed: the input guard drops it
+        found = self.agent.sensing.report(sensor, self._now(), detected, values)
+        if self._retrieved.get(sensor) != found:  # new information: reason now, not at the next tick
+            self._retrieved[sensor] = found
+            self.request_reasoning()
 
     def _on_message(self, message: ChannelMessage, received: Received) -> None:
         self.lifecycle.on_message(message, received, self._now())
 
     def _on_teammate_status(self, robot: str, msg) -> None:
-        try:
-            state = AgentState(msg.state)
-        except ValueError:
-            self.get_logger().warning(f'{self.robot}: {robot} reports an unknown state {msg.state}',
-                                      throttle_duration_sec=5.0)
-            return
-        self.lifecycle.on_teammate_status(robot, state)
+        if msg.state not in AgentState._value2member_map_ or msg.robot != robot:
+            raise MalformedInput(f'status: {msg.robot[:40]!r} state {msg.state} on {robot}\'s topic', 'bad status')
+        self.lifecycle.on_teammate_status(robot, AgentState(msg.state))
+
+    def _on_teammate(self, event: str, robot: str, detail: str) -> None:  # the channel's liveness
+        if event == 'back':
+            self.lifecycle.on_teammate_back(robot, self._now())
+        else:
+            self.lifecycle.on_teammate_lost(robot, self._now(), detail, restarted=event == 'restarted')
 
     def _reason_step(self) -> bool:
         return self.lifecycle.reasoning_step(self._now())
@@ -259,7 +259,8 @@ def stamp(seconds: float | None) -> Time:
 
 def status_message(report: StatusReport, channel_stats: dict, header_stamp) -> AgentStatus:
     """The AgentStatus of a life-cycle report and the channel's counters."""
-    msg = AgentStatus(robot=report.robot, state=int(report.state), task=report.task,
+    msg = AgentStatus(robot=report.robot, session=channel_stats['session'], state=int(report.state),
+                      task=report.task,
                       coalition_id=report.coalition_id, leader=report.leader, members=list(report.members),
                       cost=float(report.cost), search_started=stamp(report.search_started),
                       coalition_found=stamp(report.coalition_found), found_cost=float(report.found_cost),

@@ -88,6 +88,12 @@ class Channel:
     def admit_with(self, rule):
         self.core.ledger.admission = rule
 
+    def announce(self):
+        self.announced = self.team.now
+
+    def drop_commitment(self, coalition_id, leader):
+        self.core.ledger.release(coalition_id, leader, self.team.now)
+
     # the SchemaAgent's Outbox
     def set_sensor(self, sensor, active):
         self.switches.append((sensor, active))

@@ -58,7 +58,7 @@ def boxpush_bag(tmp_path):
                 header=header(s[0]), robot=s[1], state=AgentState.from_label(s[2]).value, task=s[3], coalition_id=s[4],
                 leader=s[5], members=list(s[6]), cost=float(s[7]), search_started=not_yet(), coalition_found=not_yet(),
                 found_cost=0.0, coalition_formed=not_yet(), task_finished=not_yet(), potential_solution=0, reforms=0,
-                goal_distance=float('nan'), requests_sent=0, offers_received=0, retries=0, duplicates=0, dropped=0,
+                goal_distance=float('nan'), session=0, requests_sent=0, offers_received=0, retries=0, duplicates=0, dropped=0,
                 detail='', commitments=[])) for s in statuses]
             rows += [(t, '/ground_truth/bodies', bodies_type, T[bodies_type](
                 header=header(t), bodies=[body(name, *xy) for name, xy in bodies.items()])) for t, bodies in poses]

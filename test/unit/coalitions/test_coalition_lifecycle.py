@@ -99,6 +99,12 @@ class Channel:
     def admit_with(self, rule):
         self.admission = rule
 
+    def announce(self):
+        self.announced = self.now
+
+    def drop_commitment(self, coalition_id, leader):
+        self.dropped = (coalition_id, leader)
+
 
 @pytest.fixture
 def files(config_dir):

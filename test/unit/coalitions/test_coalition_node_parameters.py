@@ -132,7 +132,8 @@ def test_the_status_message_carries_the_typed_state_and_stamps():
     report = StatusReport('robot_1', AgentState.COMMITTED, 'navigation', 'robot_1/3', 'robot_1', ('robot_1', 'robot_2'),
                           16.0, search_started=5.0, coalition_found=5.4, found_cost=17.5, coalition_formed=6.25,
                           potential_solution=2, reforms=1, requests_sent=4, offers_received=3, detail='formed')
-    msg = status_message(report, {'resent': 2, 'duplicates': 1, 'dropped': 5}, Time(sec=7))
+    msg = status_message(report, {'resent': 2, 'duplicates': 1, 'dropped': 5, 'session': 2 ** 62 + 3}, Time(sec=7))
+    assert msg.session == 2 ** 62 + 3  # the agent's session: a restarted agent's statuses are told apart
     assert msg.state == AgentStatus.COMMITTED == AgentState.COMMITTED and AgentState(msg.state).label == 'committed'
     assert (msg.search_started.sec, msg.search_started.nanosec) == (5, 0)
     assert (msg.coalition_found.sec, msg.coalition_found.nanosec) == (5, 400_000_000)

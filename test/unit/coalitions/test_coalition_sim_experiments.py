@@ -232,7 +232,7 @@ def coalition_bag(tmp_path):
             rows = [(s[0], f'/{s[1]}/coalition', status_type, T[status_type](
                 header=header(s[0]), robot=s[1], state=AgentState.from_label(s[2]).value, task=s[3], coalition_id=s[4],
                 leader=s[5], members=list(s[6]), cost=float(s[7]), requests_sent=0, offers_received=0, retries=0,
-                duplicates=0, dropped=0, detail='', **status_fields(typed.get(index, {}))))
+                session=0, duplicates=0, dropped=0, detail='', **status_fields(typed.get(index, {}))))
                 for index, s in enumerate(statuses)]
             rows += [(m[0], '/coalition/channel', message_type, T[message_type](
                 header=header(m[0]), message_id=i + 1, sender=m[1], receiver=m[2], kind=m[3], conversation_id=0,

@@ -90,6 +90,9 @@ Request-and-wait negotiation, retries        transport.commitments (CommitmentLe
                                              Negotiation), transport.retry (RetryPolicy),
                                              transport.reliable_channel (ReliableChannel)
 Streamed information (Fig. 9 flows)          transport.information_stream (InformationStream)
+Dead and restarted teammates (ours; the      transport.liveness (PeerLiveness: sessions, silence,
+paper assumes robots never fail)             heartbeats), teammate_faults (TeammateFaults: release,
+                                             re-form without the dead)
 An agent's parameters (ours)                 settings (AGENT_SETTINGS, AgentSettings)
 Agents sharing one process (ours)            cooperative_work (CooperativeWork): bounded,
                                              round-robin reasoning steps

@@ -45,6 +45,12 @@ class CoalitionChannel(Protocol):
 
     def stream(self, receiver: str, coalition_id: str, instance, values) -> None: ...
 
+    def announce(self) -> None:
+        """Tell every teammate this agent's session (it started, or restarted)."""
+
+    def drop_commitment(self, coalition_id: str, leader: str) -> None:
+        """Forget the commitment to ``coalition_id`` of ``leader`` (presumed dead: no RELEASE will come)."""
+
     def admit_with(self, rule: Admission) -> None:
         """Install the commitment ledger's admission rule (:class:`~.transport.commitments.CommitmentLedger`)."""
 

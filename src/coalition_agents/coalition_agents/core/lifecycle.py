@@ -37,6 +37,8 @@ changes a leader's state (it keeps searching for its own coalition).
   source of the chosen solution has had no current value for ``reform_timeout``, the leader stops,
   releases the coalition and searches again without the helpers that stopped, at most
   ``max_reforms`` times, then reports FAILED.
+* Dead and restarted teammates (:mod:`.teammate_faults`, :mod:`.transport.liveness`): a helper
+  releases a leader that went silent or restarted; a leader re-forms without a dead helper.
 * ``exit_when_done``: the port's ``finish`` once the coalition is set up or failed (a driving
   leader: once its task is completed or failed and the robots in ``exit_after`` report theirs
   too) / the helper released.
@@ -56,12 +58,13 @@ from .errors import CoalitionError
 from .information_values import ValueUnavailable
 from .motor_schema import STOP
 from .settings import AgentSettings
+from .teammate_faults import TeammateFaults
 from .transport.codec import ChannelMessage, MessageKind
 from .transport.commitments import Negotiation
 from .transport.reliable_channel import Received
 
 
-class AgentLifecycle:
+class AgentLifecycle(TeammateFaults):
     """One robot's coalition life cycle (module docstring)."""
 
     def __init__(self, agent: SchemaAgent, settings: AgentSettings, port: LifecyclePort, channel: CoalitionChannel):
@@ -90,6 +93,7 @@ class AgentLifecycle:
         self.task_complete = False
         self.reforms = 0
         self.attempts = 0
+        self.lost_teammates: set[str] = set()
         self.others_done: set[str] = set()
         self.own_done = False
         self.finished = False
@@ -175,18 +179,25 @@ class AgentLifecycle:
         elif kind in (MessageKind.COMMIT_ACCEPT, MessageKind.COMMIT_REJECT):
             if self.state is AgentState.NEGOTIATING:
                 self._lead(now)  # the negotiation may be decided: do not wait for the tick
-        elif kind is MessageKind.RELEASE and self.held.release(message.coalition_id, message.sender) is not None:
-            self.port.log('info', f'{self.robot}: released from coalition {message.coalition_id}')
-            if self.agent.task is None and not self.held.serving:
-                self.state = AgentState.IDLE
-                self.runner.follow = None
-                self.port.command(STOP)
-            elif self.held.motor_leader() is None:
-                self.runner.follow = None
-            self._keep_sensors()
-            self.publish()
-            if self.settings['exit_when_done'] and self.agent.task is None and not self.held.serving:
-                self._finish()
+        elif kind is MessageKind.RELEASE:
+            self._released(message.coalition_id, message.sender)
+
+    def _released(self, coalition_id: str, leader: str, why: str = '') -> None:
+        """The coalition ``coalition_id`` this robot helps ``leader`` with ended (its RELEASE, or
+        the leader was lost: ``why``)."""
+        if self.held.release(coalition_id, leader) is None:
+            return
+        self.port.log('info', f'{self.robot}: released from coalition {coalition_id}' + (f' ({why})' if why else ''))
+        if self.agent.task is None and not self.held.serving:
+            self.state = AgentState.IDLE
+            self.runner.follow = None
+            self.port.command(STOP)
+        elif self.held.motor_leader() is None:
+            self.runner.follow = None
+        self._keep_sensors()
+        self.publish()
+        if self.settings['exit_when_done'] and self.agent.task is None and not self.held.serving:
+            self._finish()
 
     def _serve(self, message: ChannelMessage, now: float) -> None:
         """A COMMIT_REQUEST this robot admitted: it helps that coalition too."""
@@ -251,6 +262,7 @@ class AgentLifecycle:
                                      f'after {team_wait:g} s; starting anyway')
         self.started_at = now
         self.task_started_at = now
+        self.channel.announce()  # teammates learn its (new) session: a restarted robot is told apart
         if self.agent.task is not None:
             self.state = AgentState.SEARCHING
             self.agent.start()
@@ -339,6 +351,8 @@ class AgentLifecycle:
             return
         while self.candidates:
             candidate = self.candidates.pop(0)
+            if self.lost_teammates.intersection(candidate.members):
+                continue  # a member is presumed dead
             self.attempts += 1
             coalition_id = f'{self.robot}/{self.channel.new_id()}'
             self.held.proposing = candidate  # its part in the coalition it proposes (the admission rule)
@@ -352,6 +366,8 @@ class AgentLifecycle:
             self.publish()
             if negotiation.state(now) == 'established':  # no helpers to wait for
                 self._established(now)
+            return
+        if self._retry_without_lost(now):
             return
         refused = '; '.join(dict.fromkeys(self.refusals[-3:]))
         self._fail(f'no executable coalition could be set up after {now - self.started_at:.2f} s '

@@ -24,6 +24,7 @@ from .errors import CoalitionError
 from .schemas import Costs, SchemaLibrary, load_costs, load_library
 from .tasks import Task, load_tasks
 from .transport.link_model import PRESETS, LinkModel
+from .transport.liveness import PeerLiveness
 from .transport.retry import RetryPolicy
 
 FILES = ('capability_file', 'schemas_file', 'costs_file', 'tasks_file')
@@ -82,6 +83,12 @@ AGENT_SETTINGS = SettingsSchema(
     _setting('peer_timeout', 10.0, 'sim s: a robot that answers nothing for this long while it owes answers is '
              'given up (its messages undelivered)', **POSITIVE),
     _setting('hold_seconds', 0.0, 'commitment hold time sent to helpers, s; 0 = until released', **NON_NEGATIVE),
+    _setting('liveness_timeout', 5.0, 'sim s: a teammate this robot works with (its leader, its helpers, the helpers '
+             'it negotiates with) that sends nothing for this long is presumed dead (a helper releases its '
+             'commitment, a leader re-forms without it); 0 = never; at least 2 x heartbeat_period',
+             **NON_NEGATIVE),
+    _setting('heartbeat_period', 1.0, 'sim s: with nothing else sent for this long to a teammate it works with, an '
+             'empty batch (heartbeat) goes to it', low=0.0, low_open=True, high=60.0),
     _setting('reading_timeout', 1.0, 'sim s a sensor report stays current', **POSITIVE),
     _setting('tick_period', 0.1, 'sim s between re-evaluations (sensor readings, deadlines, motor-schema commands); '
              'dynamic', low=0.0, low_open=True, high=10.0),
@@ -220,6 +227,10 @@ class AgentSettings:
             raise ConfigurationError("parameter team_task: required when task is 'none' (the task the team works "
                                      f"on: {', '.join(tasks)})")
         link = link_model(values)
+        if 0 < values['liveness_timeout'] < 2 * values['heartbeat_period']:
+            raise ConfigurationError(f"parameter liveness_timeout: {values['liveness_timeout']:g} s is below twice "
+                                     f"heartbeat_period ({values['heartbeat_period']:g} s): a live teammate whose "
+                                     'heartbeat is late would be presumed dead')
         if values['drive'] and task is not None and task.motor_schema not in MOTOR_SCHEMAS:
             raise ConfigurationError(f"parameter drive: task {values['task']}'s motor schema {task.motor_schema} has "
                                      f"no implementation here (implemented: {', '.join(MOTOR_SCHEMAS)})")
@@ -232,6 +243,11 @@ class AgentSettings:
     def __getitem__(self, name: str) -> Any:
         """A validated start value by parameter name."""
         return self.values[name]
+
+    def liveness(self) -> PeerLiveness:
+        """The channel's view of its teammates' sessions and silence (liveness_timeout, heartbeat_period)."""
+        return PeerLiveness(self.robot, self.values['liveness_timeout'], self.values['heartbeat_period'],
+                            self.retry.stall_s)
 
     @property
     def task_name(self) -> str:

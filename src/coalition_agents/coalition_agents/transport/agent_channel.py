@@ -64,6 +64,7 @@ from typing import Callable, Iterable, Sequence
 from rclpy.node import Node
 
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
+from collab_tools.input_guard import InputGuard, MalformedInput
 
 from ..core.transport.batch_columns import decode_columns
 from ..core.transport.batching import Batch, InboxQueue, Outbox, local_messages
@@ -71,6 +72,7 @@ from ..core.cooperative_work import CooperativeWork
 from ..core.transport.codec import ChannelCodec, ChannelMessage, MessageKind, information_message
 from ..core.errors import CoalitionError
 from ..core.transport.link_model import LinkModel
+from ..core.transport.liveness import RESTARTED, STALE, PeerLiveness, new_session
 from ..core.transport.commitments import Negotiation
 from ..core.transport.reliable_channel import Received, ReliableChannel, Undelivered
 from ..core.transport.retry import RetryPolicy
@@ -101,7 +103,10 @@ class AgentChannel:
     COMMIT_REJECT, RELEASE, INFORMATION); ``on_undelivered(undelivered)`` every copy given up
     after the retries. ``tick_s`` is the period of the retry timer while something is pending;
     ``ack_delay_s`` (default :data:`ACK_DELAY_S`, at least ``tick_s``) how long an ACK waits for a
-    batch to ride on before it goes alone. ``hub``: the process's shared endpoints (a schema_agent_host's); None: the
+    batch to ride on before it goes alone. ``liveness`` (:class:`~..core.transport.liveness.PeerLiveness`;
+    None: sessions only, nobody presumed dead) follows the teammates ``watched()`` names;
+    ``on_teammate(event, robot, detail)`` hears 'restarted' (before that batch's messages are
+    handled), 'lost' and 'back'. ``hub``: the process's shared endpoints (a schema_agent_host's); None: the
     channel creates its own (``topic``, ``tick_s``, ``drain_slice_s`` apply to it).
     """
 
@@ -110,7 +115,9 @@ class AgentChannel:
                  on_undelivered: Callable[[Undelivered], None] | None = None,
                  policy: RetryPolicy | None = None, topic: str = DEFAULT_TOPIC, tick_s: float = 0.01,
                  ack_delay_s: float | None = None, work_slice_s: float = 0.005, drain_slice_s: float = 0.01,
-                 work: CooperativeWork | None = None, hub: ChannelHub | None = None):
+                 work: CooperativeWork | None = None, hub: ChannelHub | None = None,
+                 liveness: PeerLiveness | None = None, watched: Callable[[], Iterable[str]] = tuple,
+                 on_teammate: Callable[[str, str, str], None] | None = None):
         if robot not in codec.catalog.robots:
             raise CoalitionError(f"robot: {robot!r} is not in the codec's team ({', '.join(codec.robots)})")
         unknown = [name for name in team if name not in codec.catalog.robots]
@@ -126,7 +133,14 @@ class AgentChannel:
         self.on_undelivered = on_undelivered
         # A restarted agent must not reuse message ids its peers still remember: start from the clock.
         self.core = ReliableChannel(robot, policy, first_message_id=time.time_ns() // 1000)
-        self.outbox = Outbox(robot, max(tick_s, ACK_DELAY_S) if ack_delay_s is None else ack_delay_s)
+        #: this agent's session: its batches carry it, so teammates tell a restarted agent apart
+        self.session = new_session()
+        self.liveness = liveness or PeerLiveness(robot, 0.0, 1.0)
+        self.watched, self.on_teammate = watched, on_teammate
+        self._next_check = 0.0
+        self.inputs = InputGuard.of(node)
+        self.outbox = Outbox(robot, max(tick_s, ACK_DELAY_S) if ack_delay_s is None else ack_delay_s,
+                             session=self.session)
         self.dropped = 0          # logical messages in batches the link model dropped
         self.batches_dropped = 0
         self.batches_published = 0
@@ -193,6 +207,17 @@ class AgentChannel:
         :class:`~..core.transport.commitments.CommitmentLedger`)."""
         self.core.ledger.admission = rule
 
+    def announce(self) -> None:
+        """An empty batch (its session) to every teammate: one that knew an earlier session of this
+        robot learns at once that it restarted."""
+        for teammate in self.team:
+            if teammate != self.robot:
+                self._transmit(self.outbox.heartbeat(teammate))
+
+    def drop_commitment(self, coalition_id: str, leader: str) -> None:
+        """Forget a commitment whose leader is presumed dead (no RELEASE will come)."""
+        self.core.ledger.release(coalition_id, leader, self.now())
+
     def _queue(self, messages: list[ChannelMessage]) -> None:
         """Put messages into the outbox: negotiation messages leave at once (with whatever else
         waits for that robot), the rest at the end of the processing step; an ACK alone waits for
@@ -230,6 +255,7 @@ class AgentChannel:
         # The copies leave now (a lost batch too: the link loses it, not the sender).
         now = self.now()
         self.core.transmitted(batch.recipient, [message.message_id for message in batch.messages], now)
+        self.liveness.sent(batch.recipient, now)
         delivered, delay = self.link_model.sample()
         if not delivered:
             self.batches_dropped += 1
@@ -290,14 +316,16 @@ class AgentChannel:
             decoded = decode_columns(self.codec, data, self.robot)
         except (CoalitionError, ValueError, TypeError) as exc:
             self.rejected_batches += 1
-            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel batch {sequence} from '
-                                           f'{sender!r}: {exc}')
+            self.inputs.reject(self.hub.batch_topic, MalformedInput(
+                f'{exc} (batch {sequence} from {str(sender)[:40]!r} to {self.robot})'))
             return
         for index, why in decoded.rejected:
             self.rejected += 1
-            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from {sender!r} '
-                                           f'(batch {sequence}, id {data["message_ids"][index]}): {why}')
+            self.inputs.reject(self.hub.batch_topic, MalformedInput(
+                f'{why} (from {sender!r} to {self.robot}, batch {sequence}, id {data["message_ids"][index]})'))
         now = self.now()
+        if not self._heard(sender, decoded.session, now):
+            return
         for message in decoded.messages:
             self._receive(message, now, deliver_urgent=False)
 
@@ -306,6 +334,8 @@ class AgentChannel:
         codec; see :func:`~..core.transport.batching.local_messages`)."""
         self._release_due()
         now = self.now()
+        if not self._heard(batch.sender, batch.session, now):
+            return
         for message in local_messages(batch):
             self._receive(message, now, deliver_urgent=False)
 
@@ -315,10 +345,48 @@ class AgentChannel:
             message = self.codec.decode(from_ros(msg))
         except (CoalitionError, ValueError) as exc:
             self.rejected += 1
-            self.node.get_logger().warning(f'{self.robot}: dropped malformed channel message from '
-                                           f'{msg.sender!r} (id {msg.message_id}): {exc}')
+            self.inputs.reject(self.hub.channel_topic, MalformedInput(
+                f'{exc} (from {msg.sender[:40]!r} to {self.robot}, id {msg.message_id})'))
             return
         self._receive(message, self.now())
+
+    def _heard(self, sender: str, session: int, now: float) -> bool:
+        """A batch of ``sender``'s ``session`` arrived: False for a session it has left (dropped). A
+        restarted teammate is reported before its batch is handled (its earlier self's commitments go first)."""
+        heard = self.liveness.heard(sender, session, now)
+        if heard == STALE:
+            self.inputs.reject(self.hub.batch_topic, MalformedInput(
+                f'batch.session: {sender} left session {session} (now {self.liveness.sessions[sender]})',
+                kind='stale session'))
+            return False
+        if heard == RESTARTED:
+            self.node.get_logger().warning(f'{self.robot}: {sender} restarted (session {session})')
+            self._teammate('restarted', sender, 'restarted')
+        return True
+
+    def _teammate(self, event: str, robot: str, detail: str) -> None:
+        if self.on_teammate is not None:
+            try:
+                self.on_teammate(event, robot, detail)
+            except Exception as exc:  # noqa: BLE001 - the agent's handler must not kill the executor
+                self.node.get_logger().error(f'{self.robot}: handling {robot} {event} failed: '
+                                             f'{type(exc).__name__}: {exc}')
+
+    def _follow_teammates(self, now: float) -> None:
+        """Heartbeats to the watched teammates, and those presumed dead or back (a few times per
+        heartbeat period, not at every tick)."""
+        if now < self._next_check:
+            return
+        self._next_check = now + min(0.1, self.liveness.heartbeat_s / 4)
+        check = self.liveness.check(now, self.watched())
+        for robot in check.heartbeats:
+            self._transmit(self.outbox.heartbeat(robot))
+        for robot, silent in check.lost:
+            self.node.get_logger().warning(f'{self.robot}: {robot} presumed dead (silent for {silent:.1f} s)')
+            self._teammate('lost', robot, f'silent for {silent:.1f} s')
+        for robot in check.back:
+            self.node.get_logger().info(f'{self.robot}: {robot} heard again')
+            self._teammate('back', robot, 'heard again')
 
     def _receive(self, message: ChannelMessage, now: float, deliver_urgent: bool = True) -> None:
         """Acknowledge / answer at once and queue the message for the agent
@@ -383,6 +451,7 @@ class AgentChannel:
                 self._queue(resend)
         if now >= self.outbox.next_ack_due():
             self._transmit_all(self.outbox.flush(now))  # ack-only batches (and anything else waiting)
+        self._follow_teammates(now)
         for undelivered in failed:
             self.node.get_logger().warning(f'{self.robot}: no answer from {undelivered.receiver} to '
                                            f'{undelivered.message} after {undelivered.attempts} sends')
@@ -396,7 +465,8 @@ class AgentChannel:
     def stats(self) -> dict:
         return {**self.core.stats.to_dict(), 'dropped': self.dropped, 'malformed': self.rejected,
                 'malformed_batches': self.rejected_batches, 'batches_dropped': self.batches_dropped,
-                'batches_published': self.batches_published,
+                'batches_published': self.batches_published, 'session': self.session,
+                **{f'liveness_{key}': value for key, value in self.liveness.stats.__dict__.items()},
                 **{f'outbox_{key}': value for key, value in self.outbox.stats.to_dict().items()}}
 
     def destroy(self) -> None:

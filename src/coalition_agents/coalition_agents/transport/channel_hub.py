@@ -47,6 +47,7 @@ from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 
 from collab_tools import qos as standard_qos
+from collab_tools.input_guard import InputGuard, MalformedInput
 from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
 
 from .batch_cdr import WireCheck, decode_cdr
@@ -94,7 +95,8 @@ class ChannelHub:
         self.channels: dict[str, AgentChannel] = {}
         self.batches_received = 0      # batches for a hosted robot
         self.batches_skipped = 0       # batches for robots hosted elsewhere (not deserialised)
-        self.batch_topic = batch_topic
+        self.batch_topic, self.channel_topic = batch_topic, channel_topic
+        inputs = self.inputs = InputGuard.of(node)  # malformed batches: dropped, counted, logged once per kind
         #: batches are published and read as serialized bytes (:mod:`.batch_cdr`), not typed messages
         self.wire_bytes, why_not = WIRE_CHECK.result()
         if not self.wire_bytes:
@@ -102,10 +104,10 @@ class ChannelHub:
         self.publisher = node.create_publisher(AgentMessageBatch, batch_topic, CHANNEL_QOS,
                                                event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         events = SubscriptionEventCallbacks(use_default_callbacks=False)
-        self.batch_subscription = node.create_subscription(AgentMessageBatch, batch_topic, self._on_batch,
-                                                           CHANNEL_QOS, raw=True, event_callbacks=events)
-        self.single_subscription = node.create_subscription(AgentMessage, channel_topic, self._on_single,
-                                                            CHANNEL_QOS, event_callbacks=events)
+        self.batch_subscription = inputs.subscribe(AgentMessageBatch, batch_topic, self._on_batch, CHANNEL_QOS,
+                                                   raw=True, event_callbacks=events)
+        self.single_subscription = inputs.subscribe(AgentMessage, channel_topic, self._on_single, CHANNEL_QOS,
+                                                    event_callbacks=events)
         self.timer = node.create_timer(tick_s, self._on_tick)
         self._fast = True
         self._flushing: dict[str, AgentChannel] = {}
@@ -199,7 +201,8 @@ class ChannelHub:
             try:
                 fields = batch_from_ros(deserialize_message(data, AgentMessageBatch))
             except Exception as exc:  # noqa: BLE001 - a malformed sample must not stop the executor
-                self.node.get_logger().warning(f'dropped an undecodable channel batch: {type(exc).__name__}: {exc}')
+                self.inputs.reject(self.batch_topic, MalformedInput(f'batch: undecodable ({type(exc).__name__}: {exc})',
+                                                                    kind='undecodable batch'))
                 return
         channel = self.channels.get(fields['recipient'])
         if channel is None or fields['sender'] in self.channels:
