@@ -64,9 +64,9 @@ class Channel:
     """One robot's end of the agent channel (the node's AgentChannel in process) and the
     SchemaAgent's outbox."""
 
-    def __init__(self, robot, team):
+    def __init__(self, robot, team, first_message_id=1):
         self.robot, self.team = robot, team
-        self.core = ReliableChannel(robot)
+        self.core = ReliableChannel(robot, first_message_id=first_message_id)
         self.switches: list[tuple[str, bool]] = []
 
     # CoalitionChannel
@@ -114,15 +114,22 @@ class Team:
         self.queue: collections.deque = collections.deque()
         self.poses, self.sees = poses, sees
         self.robots = list(tasks)
-        self.lives, self.ports, self.channels = {}, {}, {}
-        for robot, task in tasks.items():
-            settings = AgentSettings.build({**files, 'capabilities': capabilities, 'task': task, 'team_task': team_task,
-                                            **common, **(values or {}).get(robot, {})}, robot)
-            channel, port = Channel(robot, self), Port(self)
-            agent = SchemaAgent(robot, settings.team, settings.library, settings.costs, settings.task, channel,
-                                team_task=settings.team_task)
-            self.lives[robot] = AgentLifecycle(agent, settings, port, channel)
-            self.ports[robot], self.channels[robot] = port, channel
+        self.lives, self.ports, self.channels, self.settings = {}, {}, {}, {}
+        self.starts: collections.Counter = collections.Counter()
+        self._values = lambda robot: {**files, 'capabilities': capabilities, 'task': tasks[robot],
+                                      'team_task': team_task, **common, **(values or {}).get(robot, {})}
+        for robot in tasks:
+            self.start(robot)
+
+    def start(self, robot):
+        """Start ``robot``'s agent (again: a restarted agent knows nothing of its earlier self)."""
+        settings = self.settings[robot] = AgentSettings.build(self._values(robot), robot)
+        self.starts[robot] += 1  # a restarted agent's message ids are new ones (the node takes them from the clock)
+        channel, port = Channel(robot, self, 1 + 10 ** 9 * (self.starts[robot] - 1)), Port(self)
+        agent = SchemaAgent(robot, settings.team, settings.library, settings.costs, settings.task, channel,
+                            team_task=settings.team_task)
+        self.lives[robot] = AgentLifecycle(agent, settings, port, channel)
+        self.ports[robot], self.channels[robot] = port, channel
 
     def observe(self):
         for robot, life in self.lives.items():
