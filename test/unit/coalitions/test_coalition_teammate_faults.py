@@ -279,3 +279,16 @@ def test_a_helper_killed_during_the_search_is_skipped_or_taken_back_when_restart
     again = alone.run(4.6, 15.0, until=formed(alone))
     assert alone.state(LEADER) is COMMITTED, alone.report(LEADER).detail
     assert again - 4.6 <= 2 * 3.5 and end <= 2 * 3.5 + 2.0
+
+
+def test_the_bag_reader_times_a_restarted_leaders_last_search():
+    from coalition_agents.experiments.coalition_bag import CoalitionRun, StatusRecord, leader_timeline
+    status = lambda stamp, state, session, **more: StatusRecord(  # noqa: E731
+        stamp, LEADER, state, 'navigation', more.get('cid', ''), LEADER if more.get('cid') else '',
+        (LEADER, HELPER) if more.get('cid') else (), 17.5 if more.get('cid') else 0.0,
+        search_started=more.get('start'), session=session)
+    run = CoalitionRun(statuses=[status(1.0, SEARCHING, 7, start=1.0), status(2.5, COMMITTED, 7, cid='robot_l/1'),
+                                 status(20.0, SEARCHING, 9, start=20.0), status(22.0, COMMITTED, 9, cid='robot_l/5')])
+    timeline = leader_timeline(run, LEADER)
+    assert (timeline.search_start, timeline.formed, timeline.coalition_id) == (20.0, 22.0, 'robot_l/5')
+    assert len(run.last_session(LEADER)) == 2 and len(run.of(LEADER)) == 4

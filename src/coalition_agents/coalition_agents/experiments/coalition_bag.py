@@ -93,6 +93,8 @@ class StatusRecord:
     reforms: int = 0
     #: every coalition held at once (its own first); () in bags of agents without the field
     commitments: tuple[CommitmentRecord, ...] = ()
+    #: the agent's session (a restarted agent has a new one); 0 in bags of agents without the field
+    session: int = 0
 
     def parts(self) -> list[CoalitionPart]:
         """The held coalitions as the core's parts (for :func:`~..core.coalition_sharing.conflict`)."""
@@ -129,6 +131,12 @@ class CoalitionRun:
     def of(self, robot: str) -> list[StatusRecord]:
         return [s for s in self.statuses if s.robot == robot]
 
+    def last_session(self, robot: str) -> list[StatusRecord]:
+        """``robot``'s statuses since its agent last (re)started (all of them in bags without sessions)."""
+        statuses = self.of(robot)
+        session = statuses[-1].session if statuses else 0
+        return [s for s in statuses if s.session == session] if session else statuses
+
 
 def _stamp(header) -> float:
     return header.stamp.sec + header.stamp.nanosec * 1e-9
@@ -146,7 +154,7 @@ def status_record(msg) -> StatusRecord:
                         _time(msg.coalition_found), float(msg.found_cost), _time(msg.coalition_formed),
                         _time(msg.task_finished), int(msg.potential_solution), int(msg.reforms),
                         tuple(CommitmentRecord(c.coalition_id, c.leader, tuple(c.members), tuple(c.uses))
-                              for c in getattr(msg, 'commitments', ())))
+                              for c in getattr(msg, 'commitments', ())), int(getattr(msg, 'session', 0)))
 
 
 def read_coalition_bag(bag: Path) -> CoalitionRun:
@@ -208,7 +216,7 @@ class LeaderTimeline:
 
 def leader_timeline(run: CoalitionRun, leader: str) -> LeaderTimeline:
     """When ``leader`` started searching, found and set up its coalition (see the module docstring)."""
-    statuses = run.of(leader)
+    statuses = run.last_session(leader)  # a restarted leader: its last search
     # The agent's own record of its search start (its first SEARCHING status may be missed by
     # a recorder that subscribes to the latched status topic late), else that status's stamp.
     start = next((s.search_started for s in statuses if s.search_started is not None), None)
