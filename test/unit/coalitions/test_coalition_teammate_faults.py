@@ -292,3 +292,16 @@ def test_the_bag_reader_times_a_restarted_leaders_last_search():
     timeline = leader_timeline(run, LEADER)
     assert (timeline.search_start, timeline.formed, timeline.coalition_id) == (20.0, 22.0, 'robot_l/5')
     assert len(run.last_session(LEADER)) == 2 and len(run.of(LEADER)) == 4
+
+
+def test_a_helper_restarted_during_the_negotiation_is_asked_again(files):
+    team = team_of(files)
+    team.run(0.1, 1.0)  # found at 0.2 s, settled at 1.2 s: it negotiates with the dead helper
+    team.kill(HELPER)
+    negotiating = team.run(1.1, 1.5)
+    assert team.state(LEADER) is AgentState.NEGOTIATING
+    team.start(HELPER)  # back before its silence reached the bound
+    end = team.run(negotiating + 0.1, negotiating + 10.0, until=formed(team))
+    assert team.state(LEADER) is COMMITTED, team.report(LEADER).detail
+    assert f'{HELPER} restarted during the negotiation; searching again' in logs(team, LEADER)
+    assert end - negotiating <= 2 * 3.5

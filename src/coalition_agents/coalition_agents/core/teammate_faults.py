@@ -56,8 +56,13 @@ class TeammateFaults:
             self._reform(now, ExecutionCheck(False, (f'{robot} {why}',), lost, 0.0, True))
         elif self.state is AgentState.NEGOTIATING and self.negotiation is not None \
                 and robot in self.negotiation.helpers:
-            self.negotiation.rejected.setdefault(robot, why)
-            self._lead(now)
+            if restarted:  # its offers came from its earlier self: search again, with the new one
+                self.channel.release(self.negotiation.coalition_id, f'{robot} restarted')
+                self.port.log('info', f'{self.robot}: {robot} restarted during the negotiation; searching again')
+                self._search_again(now, exclude=tuple(self.lost_teammates))
+            else:
+                self.negotiation.rejected.setdefault(robot, why)
+                self._lead(now)
         elif restarted:
             self._teammate_returned(robot, now, 'restarted')
 
