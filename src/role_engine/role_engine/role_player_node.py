@@ -167,8 +167,8 @@ class RolePlayer(Node):
         return role
 
     def _on_role(self, msg: ProcessRole) -> None:
-        if msg.robot == self.robot or not self.sessions.channel_verdict(self.sender, msg.sender, msg.session,
-                                                                         msg.robot, msg.round):
+        if msg.robot == self.robot or not self.sessions.channel_verdict(msg.sender, msg.session, msg.robot,
+                                                                         msg.round):
             return
         self.player.on_role(msg.robot, msg.round, channel_role(msg, self.team_names))
 

@@ -86,15 +86,15 @@ def test_other_senders_and_session_zero_are_refused():
 
 def test_channel_roles_of_the_current_session_from_the_robots_node_or_the_engine():
     follower = SessionFollower(ENGINE)
-    assert not follower.channel_verdict(PLAYER_1, PLAYER_2, 11, 'burger_2', 1)   # no session yet: quietly dropped
+    assert not follower.channel_verdict(PLAYER_2, 11, 'burger_2', 1)            # no session yet: quietly dropped
     follower.follow(11, 2)
-    assert follower.channel_verdict(PLAYER_1, PLAYER_2, 11, 'burger_2', 2)
-    assert follower.channel_verdict(PLAYER_1, ENGINE, 11, 'burger_2', 2)          # an initial role
-    assert not follower.channel_verdict(PLAYER_1, PLAYER_2, 11, 'burger_2', 1)    # an earlier round: quietly
-    assert not follower.channel_verdict(PLAYER_1, PLAYER_1, 11, 'burger_1', 2)    # its own
-    refused('forged sender', follower.channel_verdict, PLAYER_1, PLAYER_2, 11, 'pioneer_1', 2)
-    refused('forged sender', follower.channel_verdict, PLAYER_1, '/evil', 11, 'burger_2', 2)
-    refused('other session', follower.channel_verdict, PLAYER_1, PLAYER_2, 12, 'burger_2', 2)
+    assert follower.channel_verdict(PLAYER_2, 11, 'burger_2', 2)
+    assert follower.channel_verdict(ENGINE, 11, 'burger_2', 2)                  # an initial role
+    assert not follower.channel_verdict(PLAYER_2, 11, 'burger_2', 1)            # an earlier round: quietly
+    refused('forged sender', follower.channel_verdict, PLAYER_2, 11, 'pioneer_1', 2)
+    refused('forged sender', follower.channel_verdict, PLAYER_1, 11, 'burger_2', 2)   # burger_1's name on burger_2's
+    refused('forged sender', follower.channel_verdict, '/evil', 11, 'burger_2', 2)
+    refused('other session', follower.channel_verdict, PLAYER_2, 12, 'burger_2', 2)
 
 
 def test_the_engine_takes_roles_of_its_session_from_the_robots_node():
@@ -176,3 +176,18 @@ def test_a_recordings_final_round_is_the_last_sessions_highest():
     assert final_assignment([record(11, 1), record(11, 3), record(22, 1), record(22, 2)]) == record(22, 2)
     assert final_assignment([record(0, 1), record(0, 2)]) == record(0, 2)      # a recording before sessions
     assert final_assignment([]) is None
+
+
+def test_a_player_standing_on_its_destination_keeps_its_role_and_arrives_when_it_ends(player):  # noqa: F811
+    """A renegotiation can hand a robot the point it stands on: its role barely moves; re-planning it would
+    restart it every period, and the robot would never arrive."""
+    player, port = player
+    still = a_role('burger_1', (1.0, 0.02), (1.0, 0.0), start_time=2.0, total_time=6.0)
+    player.on_assignment(RoundAssignment(1, 'assigned', 'x', {'burger_1': ('diamond_0', still)}, session=11))
+    for now in (3.0, 4.0, 5.0, 6.0, 7.0):
+        player.observe(now, (1.0, 0.02, 0.0))
+        assert player.replan(now) is None and player.role is still               # kept: only the heartbeat
+        player.control(now)
+    player.observe(8.5, (1.0, 0.02, 0.0))
+    player.control(8.5)
+    assert player.state is PlayerState.ARRIVED and port.published[-1].arrived

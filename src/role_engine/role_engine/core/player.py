@@ -199,7 +199,13 @@ class RolePlayer:
         if self.role is None:
             return None
         result = None
-        if not self.arrived and self.position is not None and now >= self.role.start_time:
+        # A robot already within arrival_tolerance of its destination keeps its role: re-planning a role
+        # that barely moves restarts it at every period (the robot's place along a near-stationary role is
+        # its start), so the role would never end and the robot never arrive (seen after renegotiations
+        # that hand a robot the point it stands on).
+        at_goal = self.position is not None and \
+            math.dist(self.position, self.role.trajectory[-1, :2]) <= self.tuning.arrival_tolerance
+        if not self.arrived and not at_goal and self.position is not None and now >= self.role.start_time:
             if self.robot_env is None:
                 self.robot_env = self.port.round_environment(self.round)
             if self.robot_env is not None:

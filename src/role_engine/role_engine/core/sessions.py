@@ -110,11 +110,12 @@ class SessionFollower:
         self.session, self.round = session, round_
         return new
 
-    def channel_verdict(self, own: str, sender: str, session: int, robot: str, round_: int) -> bool:
-        """Whether a process role on the channel is another robot's role of the current session and round
-        (``own``: this node's name); MalformedInput for a forged sender or another session."""
-        if sender == own or self.session == 0:
-            return False                          # its own role; or no session to compare with yet
+    def channel_verdict(self, sender: str, session: int, robot: str, round_: int) -> bool:
+        """Whether a process role on the channel (of another robot than the player's: the node drops its
+        own robot's) is of the current session and round; MalformedInput for a forged sender (this node's
+        own name on another robot's role included) or another session."""
+        if self.session == 0:
+            return False                          # no session to compare with yet
         check_role_sender(self.engine, sender, robot)
         if session != self.session:
             raise MalformedInput(f'ignored a process role of {_name(robot)} of session {session} (following '
