@@ -188,7 +188,7 @@ def plot_commanded_vs_tracked(log: FormationLog, results: dict, path: Path,
     ax.set_xlabel('x (m)')
     ax.set_ylabel('y (m)')
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, ncol=4, loc='upper center', bbox_to_anchor=(0.5, -0.12))   # below the map, off the paths
     ax.set_title('commanded (+, process role in force) vs actual (., ground truth); o: goals', fontsize=9)
     ax_err.set_xlabel('time since the first ground-truth message (s)')
     ax_err.set_ylabel('|commanded - actual| (m)')
