@@ -5,8 +5,12 @@ the players play their roles, every role node gets: process roles of an unknown 
 mismatched, 100,000-state, NaN, huge-dt and infinite-radius arrays, and a flood of them; an
 assignment whose initial role is malformed (it ended all four players with exit code 2) and one
 with a negative stamp; a team description with no robot; NaN tracked poses; camera images and a
-map with invalid stamps; a bad /clock. Every node stays up, logs each kind of rejection once, and
-the formation still completes.
+map with invalid stamps; a bad /clock. Sessions and senders (issue 16 item 4, core.sessions):
+assignments of another sender, without a session, and with round 2^32-1 (in the engine's session
+and as a new one's first round); process roles sent by another robot's node (one claiming an
+arrival) or of another session; player announcements of a robot from a node not its own and of a
+robot not in the team. Every node stays up, logs each kind of rejection once, and the formation
+still completes (the forged round did not silence the players, the forged arrival did not end it).
 """
 
 import math
@@ -18,7 +22,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid
 from rclpy.qos import qos_profile_sensor_data
-from role_interfaces.msg import ProcessRole, RoleAssignment, Team
+from role_interfaces.msg import PlayerAnnouncement, ProcessRole, RoleAssignment, Team
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image
 
@@ -50,8 +54,10 @@ def short_formation(directory: Path) -> Path:
     return path
 
 
-def role(robot, round_, stamp=None, **fields):
-    values = {'robot': robot, 'role_id': 'diamond_0', 'round': round_, 'version': 7, 'start_time': 1.0, 'dt': 0.5,
+def role(robot, round_, stamp=None, session=0, sender=None, **fields):
+    """A process role of ``robot`` sent by its player (``sender`` None) in ``session``."""
+    values = {'sender': sender if sender is not None else f'/{robot}/role_player', 'session': session,
+              'robot': robot, 'role_id': 'diamond_0', 'round': round_, 'version': 7, 'start_time': 1.0, 'dt': 0.5,
               'radius': 0.2, 'x': [0.0, 0.1, 0.2], 'y': [0.0, 0.0, 0.0], 'vx': [0.2] * 3, 'vy': [0.0] * 3}
     values.update(fields)
     msg = ProcessRole(**values)
@@ -60,28 +66,64 @@ def role(robot, round_, stamp=None, **fields):
     return msg
 
 
-def malformed_roles(round_):
+def malformed_roles(round_, session):
+    """Process roles of the current session and round, from their robot's node, that cannot be converted."""
     many = [0.0] * 100_000
     return [
-        role('ghost_robot', round_),                                        # unknown id
-        role('pioneer_1', round_, x=[], y=[], vx=[], vy=[]),                # empty arrays
-        role('pioneer_1', round_, x=[0.0, 1.0, 2.0], y=[0.0]),             # mismatched
-        role('pioneer_1', round_, x=many, y=many, vx=many, vy=many),        # huge arrays
-        role('pioneer_1', round_, x=[math.nan, 0.0, 0.0]),                  # NaN
-        role('pioneer_1', round_, dt=1e300),                                # a role of 1e300 s
-        role('pioneer_1', round_, radius=math.inf),
-        role('pioneer_1', round_, x=[1e308, 0.0, 0.0]),                     # finite, absurd
+        role('ghost_robot', round_, session=session),                                        # unknown id
+        role('pioneer_1', round_, session=session, x=[], y=[], vx=[], vy=[]),                # empty arrays
+        role('pioneer_1', round_, session=session, x=[0.0, 1.0, 2.0], y=[0.0]),             # mismatched
+        role('pioneer_1', round_, session=session, x=many, y=many, vx=many, vy=many),        # huge arrays
+        role('pioneer_1', round_, session=session, x=[math.nan, 0.0, 0.0]),                  # NaN
+        role('pioneer_1', round_, session=session, dt=1e300),                                # a role of 1e300 s
+        role('pioneer_1', round_, session=session, radius=math.inf),
+        role('pioneer_1', round_, session=session, x=[1e308, 0.0, 0.0]),                     # finite, absurd
     ]
+
+
+def out_of_session_roles(current):
+    """Well-formed process roles the engine and the players must ignore: another robot's node claims
+    burger_1 has arrived, a role of another session, and round 2^32-1 (ignored as not the round)."""
+    round_, session = current.round, current.session
+    return [
+        role('burger_1', round_, session=session, sender='/pioneer_2/role_player', arrived=True),  # forged sender
+        role('pioneer_2', round_, session=session ^ 1),                                          # other session
+        role('pioneer_2', 2**32 - 1, session=session),                                           # absurd round
+    ]
+
+
+def out_of_session_assignments(current):
+    """Assignments a player must refuse: another sender, round 2^32-1 in the engine's session and as a new
+    session's first round, no session. Each would stop the players if it were applied (status aborted)."""
+    def aborted(sender, session, round_):
+        msg = RoleAssignment(sender=sender, session=session, round=round_, status='aborted', message='forged')
+        msg.header.stamp = Time(sec=current.header.stamp.sec, nanosec=current.header.stamp.nanosec)
+        return msg
+    return [aborted('/evil/role_engine', current.session, current.round + 1),
+            aborted(current.sender, current.session, 2**32 - 1),
+            aborted(current.sender, current.session ^ 1, 2**32 - 1),
+            aborted(current.sender, 0, current.round + 1)]
+
+
+def forged_announcements():
+    """pioneer_1's announcement from a node not its own, one of a robot not in the team, and a genuine one
+    of a robot in the round (nothing to do)."""
+    return [PlayerAnnouncement(sender='/evil/role_player', robot='pioneer_1'),
+            PlayerAnnouncement(sender='/ghost_robot/role_player', robot='ghost_robot'),
+            PlayerAnnouncement(sender='/pioneer_1/role_player', robot='pioneer_1')]
 
 
 def bad_assignments(current):
     """An assignment of the next round whose initial role cannot be played, and one with a negative stamp."""
     stamp = Time(sec=current.header.stamp.sec, nanosec=current.header.stamp.nanosec)
-    broken = RoleAssignment(round=current.round + 1, status='assigned', message='fuzz', robots=list(ROBOTS),
+    broken = RoleAssignment(sender=current.sender, session=current.session, round=current.round + 1,
+                            status='assigned', message='fuzz', robots=list(ROBOTS),
                             role_ids=[f'diamond_{i}' for i in range(4)], goal_x=[0.0] * 4, goal_y=[0.0] * 4,
-                            initial_roles=[role(robot, current.round + 1, dt=1e6) for robot in ROBOTS])
+                            initial_roles=[role(robot, current.round + 1, session=current.session,
+                                                sender=current.sender, dt=1e6) for robot in ROBOTS])
     broken.header.stamp = stamp
-    negative = RoleAssignment(round=current.round + 1, status='assigned')
+    negative = RoleAssignment(sender=current.sender, session=current.session, round=current.round + 1,
+                              status='assigned')
     negative.header.stamp = NEGATIVE
     return [broken, negative]
 
@@ -106,14 +148,18 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
 
     # The channel: engine + four players hear it.
     # (a player busy re-planning keeps the newest 10 messages: spaced, each kind reaches every node)
-    channel = publish_all(ros_node, ProcessRole, '/roles/channel', malformed_roles(round_), subscribers=5,
+    epoch = assignment.session
+    channel = publish_all(ros_node, ProcessRole, '/roles/channel',
+                          malformed_roles(round_, epoch) + out_of_session_roles(assignment), subscribers=5,
                           pause=0.2)
     time.sleep(1.0)
-    flood(channel, role('pioneer_1', round_, x=[math.nan] * 3), 200, seconds=1.0)
+    flood(channel, role('pioneer_1', round_, session=epoch, x=[math.nan] * 3), 200, seconds=1.0)
     # The assignment (players only) and the team (players and tracker; the tracker converts it).
     # (the players keep one assignment: a pause lets each be taken before the next)
-    publish_all(ros_node, RoleAssignment, '/roles/assignment', bad_assignments(assignment), qos=LATCHED,
+    publish_all(ros_node, RoleAssignment, '/roles/assignment',
+                bad_assignments(assignment) + out_of_session_assignments(assignment), qos=LATCHED,
                 subscribers=4, pause=0.5)
+    publish_all(ros_node, PlayerAnnouncement, '/roles/players', forged_announcements(), subscribers=1, pause=0.2)
     publish_all(ros_node, Team, '/roles/team', [Team()], qos=LATCHED, subscribers=5)
     # A player's tracked pose, the camera, the map.
     nan_pose = PoseStamped()
@@ -135,7 +181,9 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
     assert_formation_completed(task_truth, arrived, assignment, timeout=60.0)
     session.check_alive()
     engine_log = engine.log_path.read_text()
-    assert_rejected_once_per_kind(engine_log, '/roles/channel', ['unknown robot'])
+    assert_rejected_once_per_kind(engine_log, '/roles/channel', ['unknown robot', 'forged sender', 'other session'])
+    assert_rejected_once_per_kind(engine_log, '/roles/players', ['forged sender', 'unknown robot'])
+    assert 'is back' not in engine_log                      # the genuine announcement of a playing robot: nothing
     assert len(rejections(engine_log, '/roles/channel')) >= 5
     assert '/roles/channel: 100 malformed messages dropped so far' in engine_log
     assert_rejected_once_per_kind(engine_log, '/top_camera/image_raw', ['header.stamp: negative',
@@ -146,9 +194,13 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
     clock_rejections_ok(tracker_log)
     for robot in ROBOTS:
         log = player_process(session, robot).log_path.read_text()
-        assert_rejected_once_per_kind(log, '/roles/channel', ['unknown robot'])
+        # (a player ignores roles naming its own robot: burger_1's forged arrival, pioneer_2's other session)
+        assert_rejected_once_per_kind(log, '/roles/channel', ['unknown robot']
+                                      + (['forged sender'] if robot != 'burger_1' else [])
+                                      + (['other session'] if robot != 'pioneer_2' else []))
         kinds = rejections(log, '/roles/assignment')
         assert 'header.stamp: negative' in kinds and any(k.startswith('assignment: ') for k in kinds), kinds
+        assert_rejected_once_per_kind(log, '/roles/assignment', ['other sender', 'round jump', 'no session'])
         assert_rejected_once_per_kind(log, '/roles/map', ['header.stamp: negative'])
         clock_rejections_ok(log)
         assert 'no role' not in log, robot               # the broken assignment never reached the player
