@@ -191,3 +191,25 @@ def test_a_player_standing_on_its_destination_keeps_its_role_and_arrives_when_it
     player.observe(8.5, (1.0, 0.02, 0.0))
     player.control(8.5)
     assert player.state is PlayerState.ARRIVED and port.published[-1].arrived
+
+
+def test_the_markers_drop_the_roles_of_a_session_that_is_over():
+    from types import SimpleNamespace as Msg
+    from role_engine.core.markers import RoleMarkers
+
+    def role(robot, round_, session, version=1):
+        return Msg(robot=robot, role_id='r', round=round_, version=version, session=session, start_time=0.0,
+                   dt=0.5, x=[0.0, 1.0], y=[0.0, 0.0])
+
+    def assignment(round_, session, roles):
+        return Msg(round=round_, session=session, status='assigned', message='', robots=[r.robot for r in roles],
+                   role_ids=['r'] * len(roles), goal_x=[1.0] * len(roles), goal_y=[0.0] * len(roles),
+                   initial_roles=roles)
+
+    source = RoleMarkers()
+    source.on_assignment(assignment(3, 11, [role('a', 3, 11), role('b', 3, 11)]))
+    source.on_process_role(role('b', 3, 11, version=5))
+    source.on_assignment(assignment(1, 22, [role('a', 1, 22)]))       # a restarted engine: round 1 < 3
+    assert list(source.roles) == ['a'] and source.roles['a'].session == 22
+    source.on_process_role(role('b', 3, 11, version=6))                # the old session's player: not drawn
+    assert list(source.roles) == ['a']
