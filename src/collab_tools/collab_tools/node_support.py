@@ -85,6 +85,10 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
         rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
         rclpy.try_shutdown()
         return 2
+    except KeyboardInterrupt:   # SIGINT while the node was being built (a scene loading): a stop, not a crash
+        stop_signal_handling()
+        rclpy.try_shutdown()
+        return 0
     code = 0
     try:
         if getattr(node, 'exit_when_done', False):

@@ -18,6 +18,10 @@ server of an arm is kept per node and arm name (:class:`_PickAndPlaceServer`) an
 handed from the old adapter to the new one, so a goal that was running finishes with
 ABORTED through the ordinary result path, and clients stay connected. A server whose
 arm is gone from the new scene is destroyed once no goal of it is in flight.
+
+Node shutdown (SIGINT, possibly during a goal): the context may already be shut down, so nothing
+can be created or sent any more (a timer then raised RCLError, exit 1); the server is destroyed at
+once and a client sees it vanish instead of a result.
 """
 
 from __future__ import annotations
@@ -86,15 +90,17 @@ class _PickAndPlaceServer:
         self.adapter = adapter
         self._stop_orphan_timer()
 
-    def detach(self, adapter: ArmAdapter) -> None:
+    def detach(self, adapter: ArmAdapter, node_closing: bool = False) -> None:
+        """``adapter`` goes (a scene reset, or ``node_closing``: the node itself is destroyed)."""
         if self.adapter is adapter:
             self.adapter = None
         running = self.running
         if running is not None and running.adapter is adapter:
-            adapter.entity.abort('the scene was reset while the arm was moving')
+            adapter.entity.abort('the bridge is shutting down while the arm was moving' if node_closing
+                                 else 'the scene was reset while the arm was moving')
             if not running.done.done():
                 running.done.set_result(True)
-        if self.running is None:
+        if self.running is None or node_closing:
             self._destroy()
         elif self._orphan_timer is None:
             # Keep the server until the aborted goal's result is out, or a new adapter adopts it.
@@ -232,9 +238,9 @@ class ArmAdapter(EntityAdapter):
         msg.header.stamp = Time(nanoseconds=int(round(sim_time * 1e9))).to_msg()
         self.joint_state_pub.publish(msg)
 
-    def destroy(self) -> None:
-        super().destroy()
-        self.action.detach(self)
+    def destroy(self, node_closing: bool = False) -> None:
+        super().destroy(node_closing)
+        self.action.detach(self, node_closing)
 
 
 register_adapter(Arm, ArmAdapter)

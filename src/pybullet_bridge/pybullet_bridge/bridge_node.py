@@ -286,7 +286,7 @@ class PybulletBridge(Node):
 
     def destroy_node(self):
         for adapter in self.adapters:
-            adapter.destroy()
+            adapter.destroy(node_closing=True)
         self.scene.close()
         super().destroy_node()
 

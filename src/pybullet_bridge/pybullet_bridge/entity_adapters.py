@@ -43,7 +43,9 @@ class EntityAdapter:
     def on_rate_change(self, sim_time: float) -> None:
         """Called when the node's ground_truth_rate changed (parameter set at run time)."""
 
-    def destroy(self) -> None:
+    def destroy(self, node_closing: bool = False) -> None:
+        """Destroy the adapter's ROS objects: before a scene reset, or with ``node_closing`` when the
+        node goes (its context may be shut down already: create nothing then)."""
         # Through the node, not obj.destroy(): the node must also drop them (and their
         # QoS event handlers) from its wait set, or the executor hits dead handles.
         destroyers = {Subscription: self.node.destroy_subscription,
