@@ -3,8 +3,10 @@ bridge is gone (sgcm.core.arm_goal.GoalWatch: a timeout and server loss, on the 
 
 ``send(goal, done)`` calls ``done(success, message)`` exactly once: with the action's result, when
 the arm refuses the goal, or when the goal is given up (the goal is then cancelled, in case the
-server still runs it). The bounds are the nodes' parameters ``arm_goal_timeout`` and
-``arm_server_lost_after`` (:data:`ARM_SETTINGS`; dynamic: applied to the goal out, too).
+server still runs it), or at once when the node's clock goes back (:meth:`abandon`: a restarted
+simulation, whose new action server may be in the graph before the old one has left it). The
+bounds are the nodes' parameters ``arm_goal_timeout`` and ``arm_server_lost_after``
+(:data:`ARM_SETTINGS`; dynamic: applied to the goal out, too).
 """
 from __future__ import annotations
 
@@ -31,6 +33,8 @@ ARM_SETTINGS = SettingsSchema(
 )
 #: s (steady) between checks of the goal out.
 CHECK_PERIOD = 0.5
+#: ns: the nodes' clock going back by more than this is a restarted (or reset) simulation.
+CLOCK_BACK_NS = 500_000_000
 
 Done = Callable[[bool, str], None]
 
@@ -83,10 +87,17 @@ class ArmClient:
         done, self._done, self._handle = self._done, None, None
         done(success, message)
 
+    def abandon(self, reason: str) -> None:
+        """Give the goal out up now (the simulation restarted: no server will finish a goal of the old one)."""
+        if self.watch.give_up():
+            self._give_up(reason)
+
     def _check(self) -> None:
         reason = self.watch.check(time.monotonic(), self.action.server_is_ready())
-        if reason is None:
-            return
+        if reason is not None:
+            self._give_up(reason)
+
+    def _give_up(self, reason: str) -> None:
         handle, done, self._done, self._handle = self._handle, self._done, None, None
         if handle is not None:
             handle.cancel_goal_async()  # the server may still run it (a timeout, not a crash)

@@ -43,7 +43,7 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .arm_client import ArmClient
+from .arm_client import CLOCK_BACK_NS, ArmClient
 from .camera_input import CameraInput
 from .core.follower_behaviour import Follower, FollowerChoice
 from .core.follower_rounds import FollowerPhase, FollowerRounds, HeardGuidance
@@ -135,12 +135,13 @@ class FollowerExecutor(Node):
 
     def _clock_went_back(self) -> bool:
         now = self.get_clock().now()
-        back = self.clock_seen is not None and now < self.clock_seen - Duration(seconds=0.5)
+        back = self.clock_seen is not None and now.nanoseconds < self.clock_seen.nanoseconds - CLOCK_BACK_NS
         if back:
             self.get_logger().warning(f'the clock went back ({self.clock_seen.nanoseconds / 1e9:.1f} s -> '
                                       f'{now.nanoseconds / 1e9:.1f} s: a restarted simulation); settling anew')
             self.rounds.clock_went_back(now)
             self.camera.forget_frames()
+            self.arm.abandon('the simulation restarted (the clock went back)')
             self.look_again = None
         self.clock_seen = now
         return back

@@ -47,7 +47,7 @@ from collab_tools.parameters import NodeParameters
 from collab_tools.qos import RELIABLE
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
-from .arm_client import ArmClient
+from .arm_client import CLOCK_BACK_NS, ArmClient
 from .camera_input import CameraInput
 from .core.fse_compiled import make_planner
 from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
@@ -124,13 +124,14 @@ class LeaderPlanner(Node):
     # --- events for the core's rounds ------------------------------------------------
     def _clock_went_back(self) -> None:
         now = self.get_clock().now()
-        if self.clock_seen is not None and now < self.clock_seen - Duration(seconds=0.5):
+        if self.clock_seen is not None and now.nanoseconds < self.clock_seen.nanoseconds - CLOCK_BACK_NS:
             self.get_logger().warning(f'the clock went back ({self.clock_seen.nanoseconds / 1e9:.1f} s -> '
                                       f'{now.nanoseconds / 1e9:.1f} s: a restarted simulation); waits restart now')
             self.guidance_time = now if self.guidance_time is not None else None
             self.round_ended = now if self.round_ended is not None else None
             self.look_again = None
             self.camera.forget_frames()
+            self.arm.abandon('the simulation restarted (the clock went back)')
         self.clock_seen = now
 
     def _tick(self) -> None:
@@ -215,7 +216,8 @@ class LeaderPlanner(Node):
         recommended = EMPTY if turn.recommended is None else turn.recommended
         msg = Guidance(sender=self.get_fully_qualified_name(), session=self.session, round=turn.round,
                        horizon=self.leader.planner.horizon, strategy=self.strategy,
-                       state=grid_state_msg(self.task, turn.state), leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
+                       state=grid_state_msg(self.task, turn.state),
+                       leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
                        recommended_follower_move=move_msg(self.model, FOLLOWER, recommended))
         msg.header.stamp = self.get_clock().now().to_msg()
         if plan is not None:

@@ -176,3 +176,5 @@ def test_a_goal_is_given_up_on_timeout_or_server_loss_and_its_late_result_ignore
     assert watch.check(159.0, True) is None and 'no result within 60 s' in watch.check(160.0, True)
     token = watch.sent(now=200.0)
     assert watch.finished(token) and watch.check(1000.0, False) is None and watch.given_up == 2
+    token = watch.sent(now=300.0)                                # the simulation restarted meanwhile
+    assert watch.give_up() and not watch.give_up() and not watch.finished(token) and watch.given_up == 3

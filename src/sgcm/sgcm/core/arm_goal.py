@@ -58,6 +58,14 @@ class GoalWatch:
         self._goal = None
         return True
 
+    def give_up(self) -> bool:
+        """Forget the goal out now (the node knows it is lost); False when there is none."""
+        if self._goal is None:
+            return False
+        self._goal = None
+        self.given_up += 1
+        return True
+
     def check(self, now: float, server_ready: bool) -> str | None:
         """Why the goal out is given up now (it is then forgotten), or None."""
         goal = self._goal
