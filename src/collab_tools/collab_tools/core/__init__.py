@@ -27,6 +27,7 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | messages as input: malformed-input kinds, stamp checks, the /clock filter | :mod:`.input_checks` |
 | the live view (Foxglove): topic selection, channels, ros2msg schemas, settings | :mod:`.live_view` |
 | markers as plain data (the subsystems' marker sources build them) | :mod:`.marker_specs` |
+| SROS2 access policies: sros2's policy format, DDS permissions and governance documents | :mod:`.sros2_policy` |
 
 The experiments layer's shared parts (one signature, one results schema, sweeps, plots) are in
 :mod:`collab_tools.experiments`; the ROS adapters (parameters, names, QoS, node life cycle,

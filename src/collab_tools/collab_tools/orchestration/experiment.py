@@ -42,11 +42,15 @@ Where nodes run and how they find each other (all optional; see orchestration.ne
 
 `scripts/orchestrate FILE --host robot2` on robot2 starts only robot2's nodes (same file,
 same domain_id) and runs until they exit or Ctrl-C.
+
+SROS2 (optional; see orchestration.security): every node with its enclave from the keystore
+
+    security: {keystore: /path/to/keystore, strategy: Enforce}   # or Permissive
 """
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -55,13 +59,15 @@ from ..core.fields import Fields, read_yaml_file, require_list, require_mapping
 from ..names import check_namespace
 from .network import Discovery, NetworkConfigError, parse_hosts
 from .node_process import NodeSpec
+from .security import ORCHESTRATOR_ENCLAVE, Security, SecurityConfigError
 from .session import NodeExitedError, NodesNotDiscovered, Session
 
 NODE_FIELDS = {'package', 'executable', 'name', 'namespace', 'parameters', 'remappings',
                'arguments', 'use_sim_time', 'log_level', 'required', 'host'}
 TOP_FIELDS = {'name', 'description', 'timeout', 'record', 'nodes', 'after_start', 'until',
-              'namespace', 'discovery', 'domain_id', 'discovery_timeout', 'hosts', 'follow'}
+              'namespace', 'discovery', 'domain_id', 'discovery_timeout', 'hosts', 'follow', 'security'}
 DEFAULT_DISCOVERY_TIMEOUT = 30.0
+RECORDER = NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder')
 
 
 class ExperimentError(ConfigurationError):
@@ -149,7 +155,15 @@ def load_experiment(path: Path) -> dict:
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= 3600:
         raise ExperimentError('experiment.discovery_timeout: must be a number of seconds in (0, 3600]')
     _network(data)  # checked here; the file's data stays plain (callers edit and re-dump it)
+    _security(data)
     return data
+
+
+def _security(data: dict) -> Security | None:
+    try:
+        return Security.parse(data.get('security'), 'experiment.security')
+    except SecurityConfigError as error:
+        raise ExperimentError(str(error)) from None
 
 
 def _network(data: dict) -> tuple[Discovery, dict]:
@@ -162,10 +176,13 @@ def _network(data: dict) -> tuple[Discovery, dict]:
 
 def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                    overrides: dict[str, dict] | None = None, log=print,
-                   host: str | None = None) -> SessionRunResult:
+                   host: str | None = None, security: Security | None = None,
+                   on_running=None) -> SessionRunResult:
     """Run the experiment; every node's log and the bag end up in the run dir.
 
     host: run only that host's part (its nodes, until they exit or Ctrl-C) -- on a remote host.
+    security: SROS2 for every node (replaces the file's ``security``). on_running: called with the
+    session once every node is discovered (scripts/tools/sros2_keystore.py watches the graph).
     """
     from .experiment_checks import check_experiment  # every field, before anything starts (exit 2)
 
@@ -184,7 +201,8 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
                       domain_id=data.get('domain_id'), namespace=data.get('namespace', '/'),
                       discovery=discovery, hosts=hosts,
                       # A fixed domain is where the experiment's parts (and other runs) meet.
-                      share_domain=data.get('domain_id') is not None)
+                      share_domain=data.get('domain_id') is not None,
+                      security=security or _security(data))
     names = {'config': str(config_dir), 'run_dir': str(session.run_dir)}
     for key in ('nodes', 'record', 'after_start', 'until'):
         if key in data:
@@ -199,6 +217,10 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
     condition_met = False
     message = ''
     with session:
+        if session.security is not None:   # every enclave, before any node starts (exit 2 naming them)
+            session.security.check_keystore(
+                [ORCHESTRATOR_ENCLAVE, *(session.enclave(spec) for spec in specs if spec.host not in remote),
+                 *([session.enclave(RECORDER)] if data.get('record') is not None else [])])
         record = data.get('record')
         if record is not None:
             record = _require_mapping(record, 'experiment.record')
@@ -218,7 +240,7 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             if session.namespace != '/' and not record.get('topics'):
                 # "Everything" of a namespaced session: its own topics, not a neighbour's.
                 recorder['exclude'] = ['/rosout', '/parameter_events', f'(?!{re.escape(session.namespace)}/).*']
-            session.start(NodeSpec('collab_tools', 'bag_recorder', name='bag_recorder', parameters=[recorder]))
+            session.start(replace(RECORDER, parameters=[recorder]))
         for spec in specs:
             if spec.host not in remote:
                 session.start(spec)
@@ -230,6 +252,8 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             except NodesNotDiscovered as error:
                 session.not_discovered = error.missing
                 raise
+            if on_running is not None:
+                on_running(session)
             _follow(session, data.get('follow') or [], log)
             for index, step in enumerate(data.get('after_start') or []):
                 _run_step(session, step, f'experiment.after_start[{index}]')

@@ -12,6 +12,7 @@ from typing import Any
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import NodeNameNonExistentError
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
@@ -26,10 +27,11 @@ class ConditionTimeout(TimeoutError):
 
 class GraphObserver:
 
-    def __init__(self, domain_id: int, node_name: str = 'orchestrator'):
+    def __init__(self, domain_id: int, node_name: str = 'orchestrator', enclave: str | None = None):
         self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id,
-                   signal_handler_options=SignalHandlerOptions.NO)
+        # enclave: its SROS2 identity when the session is secured (orchestration.security).
+        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO,
+                   args=['--ros-args', '--enclave', enclave] if enclave else None)
         self.node = rclpy.create_node(node_name, context=self.context,
                                       start_parameter_services=False)
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -102,6 +104,17 @@ class GraphObserver:
     def node_names(self) -> set[str]:
         """Full names (/namespace/name) of the nodes in the graph now."""
         return {(ns.rstrip('/') + '/' + name) for name, ns in self.node.get_node_names_and_namespaces()}
+
+    def endpoints(self, full_name: str) -> tuple[list[str], ...]:
+        """Names of what node ``full_name`` (/namespace/name) publishes, subscribes, serves and calls
+        now (empty when it is not in the graph): what its SROS2 permissions must allow."""
+        namespace, _, name = full_name.rpartition('/')
+        queries = (self.node.get_publisher_names_and_types_by_node, self.node.get_subscriber_names_and_types_by_node,
+                   self.node.get_service_names_and_types_by_node, self.node.get_client_names_and_types_by_node)
+        try:
+            return tuple([topic for topic, _types in query(name, namespace or '/')] for query in queries)
+        except NodeNameNonExistentError:
+            return ([], [], [], [])
 
     def close(self) -> None:
         self._stop.set()

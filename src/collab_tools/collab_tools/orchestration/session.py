@@ -15,7 +15,9 @@ A session may have a namespace (``Session('sim1', namespace='/sim1')``): every n
 under it (a node's own namespace is joined below it), ``/clock``, ``/tf`` and ``/tf_static`` are
 remapped into it, and the names a script waits for or calls are resolved against it, so two
 simulations share one ROS domain without hearing each other. ``discovery`` and ``hosts`` (see
-:mod:`.network`) say how nodes find each other and where they run.
+:mod:`.network`) say how nodes find each other and where they run. ``security`` (opt-in, see
+:mod:`.security`) starts every node with its SROS2 enclave, or refuses plainly at the start
+(Enforce on a middleware without DDS security: SecurityUnavailable, scripts exit 6).
 """
 
 import json
@@ -33,6 +35,7 @@ from .live import LiveView, from_environment as live_from_environment
 from .network import Discovery, Host, NetworkConfigError
 from .node_process import NodeProcess, NodeSpec, build_command
 from .recordings import Recording, finish_recording
+from .security import ORCHESTRATOR_ENCLAVE, Security, resolve as resolve_security
 
 EXIT_OK = 0
 EXIT_CONDITION_NOT_MET = 1
@@ -95,8 +98,9 @@ class Session:
                  stop_timeout: float = 10.0, log: Callable[[str], None] | None = print,
                  namespace: str = '/', discovery: Discovery | None = None,
                  hosts: dict[str, Host] | None = None, share_domain: bool = False,
-                 live: 'LiveView | None | str' = 'environment'):
+                 live: 'LiveView | None | str' = 'environment', security: Security | None = None):
         self.label = label
+        self.security = security   # None after __enter__ when the middleware cannot secure (Permissive)
         # The live view (orchestration.live): started first, in this session's domain and namespace.
         self.live = live_from_environment() if live == 'environment' else live
         self.namespace = join(namespace)
@@ -126,6 +130,7 @@ class Session:
         self._log(f'[session] {self.label}: ROS_DOMAIN_ID={self.domain_id}, discovery '
                   f'{self.discovery.describe()}, run dir {self.run_dir}')
         try:
+            self.security = resolve_security(self.security, self.domain_id, self._log)
             self._start_discovery_servers()
             for spec in self.live.specs() if self.live is not None else ():
                 self.start(spec)
@@ -168,6 +173,11 @@ class Session:
             'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
         })
         env.pop('ROS_LOCALHOST_ONLY', None)  # deprecated in Jazzy; the range above replaces it
+        for name in ('ROS_SECURITY_ENABLE', 'ROS_SECURITY_STRATEGY', 'ROS_SECURITY_KEYSTORE',
+                     'ROS_SECURITY_ENCLAVE_OVERRIDE'):
+            env.pop(name, None)   # secured only when this session asks (an inherited setting would half-apply)
+        if self.security is not None:
+            env.update(self.security.environment())
         env.update(extra or {})
         return env
 
@@ -195,6 +205,10 @@ class Session:
     def node_namespace(self, spec: NodeSpec) -> str:
         return join(self.namespace, spec.namespace or '/')
 
+    def enclave(self, spec: NodeSpec) -> str:
+        """The node's SROS2 enclave: its fully qualified name in this session (``/sim1/burger1/role_player``)."""
+        return join(self.node_namespace(spec), spec.name or spec.executable)
+
     def start(self, spec: NodeSpec) -> NodeProcess:
         label = spec.label  # as the experiment names it, whatever the session's namespace
         if label in self.nodes:
@@ -208,6 +222,9 @@ class Session:
         if self.namespace != '/':
             spec = _in_namespace(spec, self.namespace)
         command = build_command(spec, self.run_dir / 'params', label)
+        if self.security is not None:
+            self.security.check_keystore([self.enclave(spec)])   # exit 2 naming it, not an rcl traceback
+            command += ['--enclave', self.enclave(spec)]   # the node's identity (still inside --ros-args)
         if host is not None:
             command = host.wrap(command)
         process = NodeProcess(spec, command, self.environment(spec.env),
@@ -273,13 +290,16 @@ class Session:
                                    'DDS keeps that process-wide, so this session would discover nothing: run '
                                    'each discovery-server session in its own process (scripts/orchestrate)')
             # The observer discovers like the nodes do (rcl reads these at init).
+            security = self.security.environment() if self.security is not None else {}
             saved = {name: os.environ.get(name) for name in
-                     (*self.discovery.environment(), *self.discovery.unset)}
+                     (*self.discovery.environment(), *self.discovery.unset, *security)}
             for name in self.discovery.unset:
                 os.environ.pop(name, None)
             os.environ.update(self.discovery.environment())
+            os.environ.update(security)
             try:
-                self._observer = GraphObserver(self.domain_id, f'orchestrator_{os.getpid()}')
+                self._observer = GraphObserver(self.domain_id, f'orchestrator_{os.getpid()}',
+                                               enclave=ORCHESTRATOR_ENCLAVE if security else None)
             finally:
                 for name, value in saved.items():
                     if value is None:
