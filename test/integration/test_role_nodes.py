@@ -139,7 +139,10 @@ def test_role_players_form_the_diamond_without_collision(session, settings_file,
     while publisher.get_subscription_count() < len(ROBOTS) + 2 and time.monotonic() < deadline:
         time.sleep(0.1)
     assert publisher.get_subscription_count() >= len(ROBOTS) + 2
-    publisher.publish(ProcessRole(robot='pioneer_1', role_id='diamond_0', round=assignment.round, version=99,
+    # (sent as pioneer_1's player in the engine's session: other senders and sessions are ignored before
+    # the conversion, core.sessions)
+    publisher.publish(ProcessRole(sender='/pioneer_1/role_player', session=assignment.session, robot='pioneer_1',
+                                  role_id='diamond_0', round=assignment.round, version=99,
                                   start_time=0.0, dt=0.5, radius=0.2, x=[0.0, 1.0, 2.0], y=[0.0], vx=[0.0],
                                   vy=[0.0]))
     assert_formation_completed(truth, arrived, assignment, timeout=100.0)

@@ -28,7 +28,7 @@ from role_engine.core.node_settings import ENGINE_TUNING, PLAYER_TUNING
 from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec, tracker_spec
 
 ENGINE_READ_ONLY = {'settings_file', 'camera', 'exit_when_done', 'team_namespace'}
-PLAYER_READ_ONLY = {'settings_file', 'robot', 'team_namespace'}   # no camera: it follows tracked_pose
+PLAYER_READ_ONLY = {'settings_file', 'engine', 'robot', 'team_namespace'}   # no camera: it follows tracked_pose
 #: The engine never excludes a robot: the player test watches one player alone.
 PATIENT_ENGINE = {'silence_timeout': 1000.0, 'problem_detection.stuck_time': 1000.0,
                   'problem_detection.off_role_distance': 100.0}
