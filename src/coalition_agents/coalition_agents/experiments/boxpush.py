@@ -1,6 +1,6 @@
 """``coalition-boxpush``: box pushing and navigation with executable coalitions in simulation (IQ-ASyMTRe).
 
-Paper: Section V-A-5, Fig. 10 and Fig. 11 (``shared/papers/iq_asymtre_coalitions.txt``), the
+Paper: Section V-A-5, Fig. 10 and Fig. 11 (paper ``iq_asymtre_coalitions``, CITATION.cff), the
 cooperative robot box pushing task: five robots of three types; the box-pushing leader forms a
 coalition with a teammate whose bumper it needs, the robot that cannot localise forms one with a
 GPS robot that sees it, the helpers stream what they committed to and the motor schemas drive.
@@ -124,7 +124,8 @@ def read_run(bag: Path, agents: dict[str, dict], goal_tolerance: float) -> dict:
 def plot_run(run: dict, path: Path, title: str, scene: SceneLayout | None = None) -> None:
     """Every body's ground-truth trajectory over the scene (walls, obstacles, the box where it started),
     as the report's trajectory plots draw it: each robot in its simulation colour, the box's path dashed
-    in the box's colour; o start, s end, and the two goals (``scene``: :func:`collab_tools.experiments.plots.bag_scene`)."""
+    in the box's colour; o start, s end, and the two goals
+    (``scene``: :func:`collab_tools.experiments.plots.bag_scene`)."""
     fig, ax = plots.figure(8.5, 7.0)
     draw_scene(ax, scene)
     paths = {name: points for name, points in run['trajectories'].items() if points}

@@ -1,6 +1,6 @@
 """The Fig. 9 column: its configuration file, one column run read from its bag, and the demo.
 
-Paper: Section V-A-4 and Fig. 9 (``shared/papers/iq_asymtre_coalitions.txt``): robots in a column,
+Paper: Section V-A-4 and Fig. 9 (paper ``iq_asymtre_coalitions``, CITATION.cff): robots in a column,
 only the front one localises, each sees only the robot ahead; the robot at the back must find a
 coalition that includes every robot. The geometry is :func:`~..core.sim_scenarios.column_placements`;
 this module reads ``config/coalitions/scenarios/fig9_column.yaml`` (:func:`load_column_config`),

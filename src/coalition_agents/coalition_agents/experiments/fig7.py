@@ -1,6 +1,6 @@
 """``coalition-fig7``: possible vs executable coalitions in three clusters (IQ-ASyMTRe, Fig. 7 / Table V).
 
-Paper: Section V-A-2, Fig. 7 and Table V (``shared/papers/iq_asymtre_coalitions.txt``): three
+Paper: Section V-A-2, Fig. 7 and Table V (paper ``iq_asymtre_coalitions``, CITATION.cff): three
 robots that cannot localise and six that can, in three distant clusters; fiducials with a 180 deg
 field of view and a 4 m range. Table V counts "coalitions with two robots": *executable* ones are
 found with the robots' configuration; *possible* ones are what an approach using only the robot

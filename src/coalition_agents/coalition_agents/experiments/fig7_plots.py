@@ -1,6 +1,6 @@
 """The Fig. 7 drawings: the clusters with their fields of view and sightings, and the coalitions set up.
 
-Paper: Fig. 7 (``shared/papers/iq_asymtre_coalitions.txt``): (a) the robots, the fiducials'
+Paper: Fig. 7 (paper ``iq_asymtre_coalitions``, CITATION.cff): (a) the robots, the fiducials'
 semicircular fields of view and an arrow where one robot sees another; (b) the coalitions set up,
 as ellipses. :func:`plot_fig7` draws both from the core run, :func:`plot_fig7_sim` draws (b) from
 the coalitions the schema_agent nodes set up in simulation.

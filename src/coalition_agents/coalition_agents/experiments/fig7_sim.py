@@ -1,6 +1,6 @@
 """``coalition-fig7 --mode sim``: Fig. 7 / Table V with schema_agent nodes on the bridge (IQ-ASyMTRe).
 
-Paper: Section V-A-2, Fig. 7(b) and Table V (``shared/papers/iq_asymtre_coalitions.txt``): the
+Paper: Section V-A-2, Fig. 7(b) and Table V (paper ``iq_asymtre_coalitions``, CITATION.cff): the
 coalitions the robots set up in the three clusters. The core experiment (:func:`.fig7.run_core`:
 possible vs executable, geometric sensing) runs first, into ``core/``; then the same poses run in
 simulation (``sim/``: the bridge's fiducials with occlusion, each robot's own field of view, the

@@ -1,6 +1,6 @@
 """``coalition-fig9``: a column of robots -- time to find the coalition, messages over time (IQ-ASyMTRe, Fig. 9).
 
-Paper: Section V-A-4 and Fig. 9 (``shared/papers/iq_asymtre_coalitions.txt``): the time the robot
+Paper: Section V-A-4 and Fig. 9 (paper ``iq_asymtre_coalitions``, CITATION.cff): the time the robot
 at the back of a column takes to find the coalition solution (which must include every robot) as
 the column grows, with the paper's link delay N(3.85 ms, 5.05 ms); and the messages four robots
 of the ten-robot column send and receive over time. The paper's text gives "about 30 s" for ten

@@ -1,6 +1,6 @@
 """``coalition-table3``: the potential solutions of the navigation task (IQ-ASyMTRe, Table III).
 
-Paper: Section V-A-1 and Table III (``shared/papers/iq_asymtre_coalitions.txt``): the potential
+Paper: Section V-A-1 and Table III (paper ``iq_asymtre_coalitions``, CITATION.cff): the potential
 solutions for F_G(local) of the navigation MS on a robot with a fiducial, a laser and a GPS, in
 non-descending cost (costs: RPS 0.5, ES-EPS 1, CS 2, MS 4). Ours are generated in the core
 (:class:`~..core.SolutionSpaceGenerator`, Algorithm 1) and listed next to the paper's printed rows;
