@@ -96,14 +96,16 @@ def longest_loss_streak(seed, loss, batches=400):
 TEAM_SEEDS = (101, 102, 103)
 
 
-def start_team(session, files, config_dir, loss):
+def start_team(session, files, config_dir, loss, extra=None):
+    """The bridge and the three agents (``extra``: more parameters for every agent)."""
     scenario = config_dir / 'scenarios' / 'coalition_three_robots.yaml'
     session.start(bridge_spec(scenario, real_time_factor=1.0, start_paused=False, publish_camera=False,
                               ground_truth_rate=1.0))
     processes = {}
     for index, robot in enumerate((LEADER, HELPER, BYSTANDER)):
         params = {**files, 'task': 'navigation' if robot == LEADER else 'none',
-                  'team_task': 'navigation', 'loss_probability': loss, 'seed': TEAM_SEEDS[index], 'search_time': 3.0}
+                  'team_task': 'navigation', 'loss_probability': loss, 'seed': TEAM_SEEDS[index], 'search_time': 3.0,
+                  **(extra or {})}
         if robot == LEADER:  # the team as a parameter, no capability file (as on a machine without it)
             params.pop('capability_file')
             params['capabilities'] = open(files['capability_file']).read()
@@ -232,9 +234,9 @@ def test_helper_streams_the_leader_position_and_the_leader_re_forms_when_it_stop
                     return dict(zip(b.value_names[value:value + n_values], b.values[value:value + n_values]))
                 info, value = info + count, value + n_values
             return None
-        batch = session.wait_for_message('/coalition/batches', 'coalition_interfaces/msg/AgentMessageBatch',
-                                         timeout=20.0, predicate=lambda b: values(b) is not None)
-        return values(batch)
+        bundle = session.wait_for_message('/coalition/bundles', 'coalition_interfaces/msg/AgentMessageBundle',
+                                          timeout=20.0, predicate=lambda m: any(values(b) is not None for b in m.batches))
+        return next(values(b) for b in bundle.batches if values(b) is not None)
 
     pose, seen = streamed('F_G', [helper]), streamed('F_R', [NAV_LEADER, helper])
     c, s_ = math.cos(pose['yaw']), math.sin(pose['yaw'])
