@@ -23,6 +23,7 @@ found a bad signature, 2 bad arguments or files.
 """
 import argparse
 import sys
+import tempfile
 import threading
 from pathlib import Path
 
@@ -82,10 +83,12 @@ def standard_enclaves(recorder: str | None) -> list[NodeAccess]:
     return own
 
 
-def from_experiment(path: Path, keystore: Keystore) -> int:
+def from_experiment(path: Path, keystore: Keystore, run_dir: Path | None) -> int:
     data = load_experiment(path)
     watch = GraphWatch()
-    result = run_experiment(path.resolve(), _workspace.CONFIG_DIR, on_running=watch.start)
+    with tempfile.TemporaryDirectory(prefix='sros2_keystore_run_') as tmp:   # the run's logs: kept with --run-dir
+        result = run_experiment(path.resolve(), _workspace.CONFIG_DIR, run_dir=run_dir or Path(tmp),
+                                on_running=watch.start)
     accesses = watch.stop()
     if result.exit_code != 0 or not accesses:
         print(f'error: {path}: the experiment did not complete ({result.message}; exit {result.exit_code}): '
@@ -129,19 +132,22 @@ def main() -> int:
     parser.add_argument('--policy', type=Path, help='an sros2 policy.xml instead of running an experiment')
     parser.add_argument('--domain-id', type=int, help='with --policy: the one ROS domain allowed (default: all)')
     parser.add_argument('--check', type=Path, metavar='KEYSTORE', help='verify a keystore and list its enclaves')
+    parser.add_argument('--run-dir', type=Path, help="keep the experiment run's logs and bag here (default: discarded)")
     args = parser.parse_args()
     try:
         if args.check:
             return check(Keystore(args.check))
         if args.keystore is None or (args.experiment is None) == (args.policy is None):
             parser.error('give --keystore and one of: an experiment file, --policy FILE')
+        if args.domain_id is not None and not 0 <= args.domain_id <= 232:
+            parser.error(f'--domain-id: must be in [0, 232] (got {args.domain_id})')
         keystore = Keystore(args.keystore.expanduser())
         if args.policy:
             accesses = parse_policy(args.policy.read_text(), str(args.policy))
             keystore.write(accesses, args.domain_id)
             print(f'{keystore.root}: {len(accesses)} enclaves from {args.policy}')
             return 0
-        return from_experiment(args.experiment, keystore)
+        return from_experiment(args.experiment, keystore, args.run_dir)
     except (ConfigurationError, OSError, UnicodeDecodeError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2

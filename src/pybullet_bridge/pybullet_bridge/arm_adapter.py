@@ -100,7 +100,8 @@ class _PickAndPlaceServer:
                                  else 'the scene was reset while the arm was moving')
             if not running.done.done():
                 running.done.set_result(True)
-        if self.running is None or node_closing:
+        # A shut-down context (SIGINT during a reset) can create nothing, not even the orphan timer.
+        if self.running is None or node_closing or not self.node.context.ok():
             self._destroy()
         elif self._orphan_timer is None:
             # Keep the server until the aborted goal's result is out, or a new adapter adopts it.
