@@ -71,3 +71,4 @@ def test_without_a_scene_the_robots_still_get_distinct_colours(saved, tmp_path):
     colours = line_colours(saved[0].axes[0])
     assert colours['pioneer_1 actual'] != colours['burger_1 actual']
     assert not saved[0].axes[0].patches
+

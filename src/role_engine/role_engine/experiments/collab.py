@@ -120,8 +120,24 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     acceptance = collab_acceptance(results)
     report = collab_markdown(results, acceptance)
     log(f"[roles-collab] acceptance: {'passed' if acceptance['passed'] else 'FAILED'} ({acceptance['reason']})")
-    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results,
+    return ExperimentResult(acceptance['passed'], collab_outcome(results, acceptance), report, acceptance, results,
                             report_file='collab.md')
+
+
+def collab_outcome(results: dict, acceptance: dict) -> str:
+    """Per scenario the role-based run's key figures (the task-based one's collisions beside them); a failed
+    acceptance says why."""
+    parts = []
+    for name, entry in results['scenarios'].items():
+        role, task = entry.get('role_based'), entry.get('task_based')
+        text = name + ': role-based ' + ('not run' if role is None else
+                                         f"{'completed' if role['completed'] else 'NOT completed'}, min distance "
+                                         f"{role['min_distance']:.3f} m, {role['collisions']} collisions")
+        if task is not None:
+            text += f" (task-based {task['collisions']})"
+        parts.append(text)
+    text = '; '.join(parts)
+    return text if acceptance['passed'] else f"{text}; {acceptance['reason']}"
 
 
 def collab_acceptance(results: dict) -> dict:

@@ -81,8 +81,8 @@ def run(request: ExperimentRequest) -> ExperimentResult:
     scene = plots.bag_scene(bag)   # the world as the simulation drew it: walls, boxes/map, robots' colours
     plot_commanded_vs_tracked(flog, results, run_dir / 'commanded_vs_tracked.png', scene)
     plot_commands(flog, run_dir / 'cmd_vel.png', scene)
-    return ExperimentResult(acceptance['passed'], acceptance['reason'], report, acceptance, results,
-                            report_file='formation.md')
+    return ExperimentResult(acceptance['passed'], formation_outcome(results, acceptance), report, acceptance,
+                            results, report_file='formation.md')
 
 
 def formation_acceptance(results: dict, stopped: str | None = None) -> dict:
@@ -101,6 +101,16 @@ def formation_acceptance(results: dict, stopped: str | None = None) -> dict:
     return {'passed': not failures, 'checks': checks,
             'reason': 'every check holds' if not failures else 'failed: ' + ', '.join(failures)}
 
+
+
+def formation_outcome(results: dict, acceptance: dict) -> str:
+    """The run in one line, key figures first (the report's outcome line); a failed acceptance says why."""
+    arrived = sum(1 for r in results['robots'].values() if r['arrived'])
+    text = (f"{'formed' if results['completed'] else 'NOT formed'}: {arrived}/{len(results['robots'])} robots "
+            f"arrived (round {results['final_round']}); min distance {results['min_distance']:.3f} m "
+            f"(clearance {results['min_clearance']:.3f} m), {results['collisions']} collisions, min obstacle "
+            f"clearance {_mm(results.get('min_obstacle_clearance'))}")
+    return text if acceptance['passed'] else f"{text}; {acceptance['reason']}"
 
 
 def player_label(data: dict, robot: str, where: object = 'experiment') -> str:
