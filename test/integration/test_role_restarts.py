@@ -10,6 +10,8 @@ the engine, the robot tracker and four players.
   (the round without it is the fixed point), so the hard way back is taken every time: the restarted
   player finds no role in the latched assignment, announces itself, the engine re-includes it and all
   four robots complete the formation.
+* A role player restarted at once, before the engine's (raised) silence timeout: it takes its role
+  again from the latched assignment and the round completes without a renegotiation.
 * The role engine (a camera subscriber too) is killed the same way and restarted at once: its new
   session starts at round 1, the players follow it (their round 1 of the old session no longer
   hides it), and the formation completes in the new session.
@@ -112,12 +114,12 @@ class TeamWatch:
         return max(b - a for a, b in zip(seen, seen[1:]))
 
 
-def start_team(session, tmp_path):
+def start_team(session, tmp_path, **engine_parameters):
     settings = short_formation(tmp_path)
     session.start(NodeSpec('pybullet_bridge', 'pybullet_bridge', name='pybullet_bridge', use_sim_time=False,
                            parameters=[{'scenario': str(tmp_path / 'scenario.yaml'), 'real_time_factor': 0.5,
                                         'ground_truth_rate': 20.0}]))
-    session.start(engine_spec(settings))
+    session.start(engine_spec(settings, **engine_parameters))
     session.start(tracker_spec())
     for robot in ROBOTS:
         session.start(player_spec(robot, settings, required=True))
@@ -178,6 +180,31 @@ def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tm
     print(f'player restart: camera gap {frame_gap:.2f} s after the kill; back after {restart:.1f} s; formation '
           f'complete {time.monotonic() - killed_at:.1f} s after the kill (bound {bound:.0f} s); '
           f'load {os.getloadavg()[0]:.2f}')
+
+
+def test_a_player_restarted_in_time_takes_its_role_from_the_latched_assignment(session, tmp_path):
+    settings = start_team(session, tmp_path, silence_timeout=30.0)
+    watch = TeamWatch(session.observer.node)
+    first = watch.wait(lambda: next((a for a in watch.assignments if a.status == 'assigned'), None), 90,
+                       'the first assignment')
+    session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
+                             predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
+    killed_at = kill(session, 'burger_2/role_player')
+    session.start(player_spec('burger_2', settings, required=True))
+    heard = session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole', timeout=60,
+                                     predicate=lambda m: m.robot == 'burger_2' and m.sender == '/burger_2/role_player'
+                                     and m.version == 1 and m.round == first.round)   # the restarted player's first
+    restart = time.monotonic() - killed_at
+    assert heard.session == first.session
+    bound = 2 * UNDISTURBED_S + restart
+    watch.wait(lambda: watch.complete(first), max(0.0, killed_at + bound - time.monotonic()),
+               f'the formation of round {first.round} within {bound:.0f} s of the kill')
+    with watch.lock:
+        assert [(a.session, a.round) for a in watch.assignments] == [(first.session, first.round)]   # no renegotiation
+    log = session.nodes['burger_2/role_player'].log_path.read_text()
+    assert f'round {first.round}: playing' in log and 'no role' not in log
+    print(f'player restart in time: playing again {restart:.1f} s after the kill; formation complete '
+          f'{time.monotonic() - killed_at:.1f} s after the kill (bound {bound:.0f} s); load {os.getloadavg()[0]:.2f}')
 
 
 def test_a_restarted_engine_starts_a_new_session_the_players_follow(session, tmp_path):
