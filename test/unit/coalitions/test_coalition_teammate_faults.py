@@ -28,13 +28,14 @@ COMMITTED, FAILED, SEARCHING = AgentState.COMMITTED, AgentState.FAILED, AgentSta
 
 def test_sessions_tell_a_restarted_teammate_apart_and_drop_its_earlier_self():
     live = PeerLiveness('a', 2.0, 0.5)
+    assert live.heard('b', 0, 0.0) == CURRENT  # no session (a tool) while b's own is unknown: judges nothing
     assert live.heard('b', 11, 0.0) == FIRST
     assert live.heard('b', 11, 0.1) == CURRENT
-    assert live.heard('b', 0, 0.2) == CURRENT  # no session (a tool, an old bag): judges nothing
+    assert live.heard('b', 0, 0.2) == STALE  # no session once b's is known: out of session
     assert live.heard('b', 22, 0.3) == RESTARTED
     assert live.heard('b', 11, 0.4) == STALE  # a batch of the session it left
     assert live.heard('b', 22, 0.5) == CURRENT
-    assert (live.sessions['b'], live.stats.restarts, live.stats.stale_batches) == (22, 1, 1)
+    assert (live.sessions['b'], live.stats.restarts, live.stats.stale_batches) == (22, 1, 2)
 
 
 def follow(live, start, end, watched, dt=0.1):

@@ -2,13 +2,15 @@
 link model on the sending side, retries and commitments from :mod:`..core.transport.reliable_channel`.
 
 Aggregation (:mod:`..core.transport.batching`): an agent does not publish its logical messages one by one.
-It buffers them per recipient and publishes, at the end of each processing step, ONE
-``coalition_interfaces/AgentMessageBatch`` per recipient on the team's batch topic
-``<team>/coalition/batches`` (``/coalition/batches`` with the default team namespace ``/``), its
-messages stored column-wise (:mod:`..core.transport.batch_columns`). QoS: :data:`~.channel_hub.CHANNEL_QOS`,
-reliable like ``collab_tools.qos.RELIABLE`` so that the only losses are the modelled ones, but with
-a queue of :data:`~.channel_hub.QUEUE_DEPTH` instead of 10 -- deliberately: a search burst queues
-hundreds of batches, and a full KEEP_LAST queue silently replaces unread ones. ACKs are not
+It buffers them per recipient and sends, at the end of each processing step, ONE
+``coalition_interfaces/AgentMessageBatch`` per recipient, its messages stored column-wise
+(:mod:`..core.transport.batch_columns`); the process's hub publishes every batch its agents send in
+one step as ONE ``coalition_interfaces/AgentMessageBundle`` on the team's bundle topic
+``<team>/coalition/bundles`` (``/coalition/bundles`` with the default team namespace ``/``).
+QoS: :data:`~.channel_hub.CHANNEL_QOS`, reliable like ``collab_tools.qos.RELIABLE`` so that the only
+losses are the modelled ones, but with a queue of :data:`~.channel_hub.QUEUE_DEPTH` instead of 10
+-- deliberately: a search burst queues hundreds of messages, and a full KEEP_LAST queue silently
+replaces unread ones. ACKs are not
 messages of their own: their ids ride in ``acked_ids`` of the next batch to that robot, or in an
 ack-only batch after ``ack_delay_s`` (default :data:`ACK_DELAY_S`) if nothing else goes there.
 Negotiation messages (COMMIT_REQUEST/ACCEPT/REJECT, RELEASE) are flushed at once and processed
@@ -58,6 +60,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import re
 import time
 from typing import Callable, Iterable, Sequence
 
@@ -76,18 +79,31 @@ from ..core.transport.liveness import RESTARTED, STALE, PeerLiveness, new_sessio
 from ..core.transport.commitments import Negotiation
 from ..core.transport.reliable_channel import Received, ReliableChannel, Undelivered
 from ..core.transport.retry import RetryPolicy
-from .batch_cdr import batch_to_cdr, set_stamp
 from .batch_wire import batch_from_ros, batch_to_ros, from_ros, to_ros
-from .channel_hub import BATCH_TOPIC, CHANNEL_QOS, CHANNEL_TOPIC, QUEUE_DEPTH, ChannelHub
+from .channel_hub import BATCH_TOPIC, BUNDLE_TOPIC, CHANNEL_QOS, CHANNEL_TOPIC, QUEUE_DEPTH, ChannelHub, bundle_topic_of
 
 #: the channel of the default team namespace ``/``
 DEFAULT_TOPIC = '/' + CHANNEL_TOPIC
 #: the batch topic of the default team namespace ``/``
 DEFAULT_BATCH_TOPIC = '/' + BATCH_TOPIC
+#: the bundle topic of the default team namespace ``/`` (what the agents publish)
+DEFAULT_BUNDLE_TOPIC = '/' + BUNDLE_TOPIC
 #: s an ACK waits for a batch to the same robot to ride on before it goes in an ack-only batch:
 #: a third of the Fig. 9 column's batches carried only ACKs at 10 ms; far below the retry
 #: timeouts (reorder window 50 ms after a later answer, tail timeout >= 0.2 s)
 ACK_DELAY_S = 0.03
+
+
+def bundle_topic(channel_topic: str = DEFAULT_TOPIC) -> str:
+    """The bundle topic beside a single-message channel topic (``/coalition/channel`` -> ``/coalition/bundles``)."""
+    return bundle_topic_of(batch_topic(channel_topic))
+
+
+def malformed(text: str) -> MalformedInput:
+    """A rejection whose kind is the field it names, without indices ('batch.messages.cost'): one kind
+    however many messages of a batch, or batches of a flood, have it."""
+    field = text.split(': ', 1)[0] if ': ' in text else 'batch'
+    return MalformedInput(text, kind='malformed ' + re.sub(r'\[\d+\]', '', field)[:80])
 
 
 def batch_topic(channel_topic: str = DEFAULT_TOPIC) -> str:
@@ -146,7 +162,7 @@ class AgentChannel:
         self.batches_published = 0
         self.rejected = 0         # malformed messages (alone or inside a batch)
         self.rejected_batches = 0
-        self._delayed: list[tuple[float, int, AgentMessageBatch, Batch]] = []  # (due, order, msg, batch): a heap
+        self._delayed: list[tuple[float, int, Batch]] = []  # (due, order, batch): a heap
         self._order = itertools.count()
         self._flush_scheduled = False
         #: received messages (already acknowledged) waiting for the agent, negotiation messages first
@@ -263,11 +279,10 @@ class AgentChannel:
             self.node.get_logger().debug(f'link model dropped batch {batch.sequence} {self.robot}->{batch.recipient} '
                                          f'({len(batch.messages)} messages, {len(batch.acked_ids)} acks)')
             return
-        msg = batch_to_cdr(batch) if self.hub.wire_bytes else batch_to_ros(batch)
         if delay <= 0.0:
-            self._publish(msg, batch)
+            self._publish(batch)
             return
-        heapq.heappush(self._delayed, (now + delay, next(self._order), msg, batch))
+        heapq.heappush(self._delayed, (now + delay, next(self._order), batch))
         self.hub.wake()
 
     def _release_due(self) -> None:
@@ -276,18 +291,13 @@ class AgentChannel:
             return
         now = self.now()
         while self._delayed and self._delayed[0][0] <= now:
-            _, _, msg, batch = heapq.heappop(self._delayed)
-            self._publish(msg, batch)
+            _, _, batch = heapq.heappop(self._delayed)
+            self._publish(batch)
 
-    def _publish(self, msg: AgentMessageBatch | bytearray, batch: Batch) -> None:
-        """Stamp the batch now (when it leaves the link model) and publish it."""
-        stamp_ns = self._clock.handle.get_now().nanoseconds
-        if isinstance(msg, bytearray):
-            set_stamp(msg, stamp_ns)
-            self.hub.publish(bytes(msg), batch)
-        else:
-            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
-            self.hub.publish(msg, batch)
+    def _publish(self, batch: Batch) -> None:
+        """Stamp the batch now (when it leaves the link model) and hand it to the hub, which
+        publishes it in the step's bundle (encoded there, into the bundle's bytes)."""
+        self.hub.publish(batch, self._clock.handle.get_now().nanoseconds)
         self.batches_published += 1
 
     def teammates_listening(self, presence_topic: Callable[[str], str]) -> int:
@@ -316,12 +326,12 @@ class AgentChannel:
             decoded = decode_columns(self.codec, data, self.robot)
         except (CoalitionError, ValueError, TypeError) as exc:
             self.rejected_batches += 1
-            self.inputs.reject(self.hub.batch_topic, MalformedInput(
-                f'{exc} (batch {sequence} from {str(sender)[:40]!r} to {self.robot})'))
+            self.inputs.reject(self.hub.batch_topic, malformed(f'{exc} (batch {sequence} from {str(sender)[:40]!r} '
+                                                              f'to {self.robot})'))
             return
         for index, why in decoded.rejected:
             self.rejected += 1
-            self.inputs.reject(self.hub.batch_topic, MalformedInput(
+            self.inputs.reject(self.hub.batch_topic, malformed(
                 f'{why} (from {sender!r} to {self.robot}, batch {sequence}, id {data["message_ids"][index]})'))
         now = self.now()
         if not self._heard(sender, decoded.session, now):
@@ -345,7 +355,7 @@ class AgentChannel:
             message = self.codec.decode(from_ros(msg))
         except (CoalitionError, ValueError) as exc:
             self.rejected += 1
-            self.inputs.reject(self.hub.channel_topic, MalformedInput(
+            self.inputs.reject(self.hub.channel_topic, malformed(
                 f'{exc} (from {msg.sender[:40]!r} to {self.robot}, id {msg.message_id})'))
             return
         self._receive(message, self.now())
@@ -356,8 +366,8 @@ class AgentChannel:
         heard = self.liveness.heard(sender, session, now)
         if heard == STALE:
             self.inputs.reject(self.hub.batch_topic, MalformedInput(
-                f'batch.session: {sender} left session {session} (now {self.liveness.sessions[sender]})',
-                kind='stale session'))
+                f'batch.session: {session} is not the current session of {sender} '
+                f'({self.liveness.sessions[sender]}) (to {self.robot})', kind='out-of-session batch'))
             return False
         if heard == RESTARTED:
             self.node.get_logger().warning(f'{self.robot}: {sender} restarted (session {session})')
@@ -479,5 +489,6 @@ class AgentChannel:
             self.hub.destroy()
 
 
-__all__ = ['ACK_DELAY_S', 'AgentChannel', 'BATCH_TOPIC', 'CHANNEL_QOS', 'CHANNEL_TOPIC', 'DEFAULT_BATCH_TOPIC', 'DEFAULT_TOPIC',
-           'QUEUE_DEPTH', 'batch_from_ros', 'batch_to_ros', 'batch_topic', 'from_ros', 'to_ros']
+__all__ = ['ACK_DELAY_S', 'AgentChannel', 'BATCH_TOPIC', 'BUNDLE_TOPIC', 'CHANNEL_QOS', 'CHANNEL_TOPIC', 'DEFAULT_BATCH_TOPIC',
+           'DEFAULT_BUNDLE_TOPIC', 'DEFAULT_TOPIC',
+           'QUEUE_DEPTH', 'batch_from_ros', 'batch_to_ros', 'batch_topic', 'bundle_topic', 'from_ros', 'to_ros']

@@ -8,8 +8,11 @@ a coalition therefore follow each other here:
   start (:func:`new_session`). :meth:`PeerLiveness.heard` follows the current session of every
   teammate: a new session of a known teammate means it *restarted* -- its earlier self and
   everything that self held (commitments, offers, negotiations) is gone -- and a batch of a session
-  it has left is *stale* and dropped. Session 0 (tools, tests, old bags) is accepted and judges
-  nothing. Per batch this is one dict lookup and one dict update (the whole per-message cost).
+  it has left is *stale* and dropped. Session 0 (a tool's batch) is accepted, judging nothing,
+  only while the teammate's own session is unknown; after that it is out of session (dropped).
+  Per batch this is one dict lookup and one dict update (the whole per-message cost). Sessions are
+  not authentication: a forger who claims a new session makes the teammate look restarted (issue
+  16 item 9: the wheels have no DDS security).
 * Silence. The teammates a robot works with are *watched* (the life cycle says which: its leader,
   its helpers, the helpers it negotiates with). A watched teammate from which no batch has come for
   ``silence_s`` (since the later of its last batch and the start of the watch) is presumed dead --
@@ -52,7 +55,7 @@ class LivenessCheck:
 @dataclass
 class LivenessStats:
     restarts: int = 0        # teammates seen with a new session
-    stale_batches: int = 0   # batches of a session its sender has left (dropped)
+    stale_batches: int = 0   # batches of a session its sender has left, or without one (dropped)
     presumed_dead: int = 0   # watched teammates presumed dead after silence_s
     heartbeats: int = 0      # empty batches asked for
     stalls: int = 0          # checks after a gap longer than stall_s (not counted against teammates)
@@ -92,8 +95,11 @@ class PeerLiveness:
         if self.sessions.get(sender) == session:
             self.heard_at[sender] = now
             return CURRENT
-        if not session:
-            return CURRENT  # no session (a tool): accepted, judges nothing
+        if not session:  # no session: a tool's batch, accepted until the teammate's own session is known
+            if sender in self.sessions:
+                self.stats.stale_batches += 1
+                return STALE
+            return CURRENT
         if session in self._left.get(sender, ()):
             self.stats.stale_batches += 1
             return STALE
