@@ -254,3 +254,14 @@ def test_permissive_session_on_such_a_middleware_runs_unsecured(middleware, tmp_
         env = session.environment()
     assert session.security is None and 'ROS_SECURITY_ENABLE' not in env
     assert any('WARNING security: Permissive' in line and 'UNSECURED' in line for line in lines)
+
+
+def test_an_inherited_security_setting_reaches_no_node_of_an_unsecured_session(tmp_path, monkeypatch):
+    monkeypatch.setenv('ROS_SECURITY_ENABLE', 'true')
+    monkeypatch.setenv('ROS_SECURITY_STRATEGY', 'Enforce')
+    monkeypatch.setenv('ROS_SECURITY_KEYSTORE', str(tmp_path / 'nowhere'))
+    with Session('t', run_dir=tmp_path, log=None) as session:
+        env = session.environment()
+        names = session.observer.node_names()   # the observer starts unsecured (no RCLError)
+    assert not any(name.startswith('ROS_SECURITY') for name in env)
+    assert isinstance(names, set) and os.environ['ROS_SECURITY_ENABLE'] == 'true'   # restored

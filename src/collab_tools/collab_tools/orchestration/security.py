@@ -28,6 +28,9 @@ from pathlib import Path
 from ..core.errors import ConfigurationError
 
 STRATEGIES = ('Enforce', 'Permissive')
+#: What rcl reads; a session sets them only when it is secured (an inherited value never leaks in).
+SECURITY_VARIABLES = ('ROS_SECURITY_ENABLE', 'ROS_SECURITY_STRATEGY', 'ROS_SECURITY_KEYSTORE',
+                      'ROS_SECURITY_ENCLAVE_OVERRIDE')
 ORCHESTRATOR_ENCLAVE = '/orchestrator'
 #: Exit code of scripts/orchestrate when Enforce was asked for and the middleware has no DDS security.
 EXIT_SECURITY_UNAVAILABLE = 6

@@ -35,7 +35,7 @@ from .live import LiveView, from_environment as live_from_environment
 from .network import Discovery, Host, NetworkConfigError
 from .node_process import NodeProcess, NodeSpec, build_command
 from .recordings import Recording, finish_recording
-from .security import ORCHESTRATOR_ENCLAVE, Security, resolve as resolve_security
+from .security import ORCHESTRATOR_ENCLAVE, SECURITY_VARIABLES, Security, resolve as resolve_security
 
 EXIT_OK = 0
 EXIT_CONDITION_NOT_MET = 1
@@ -173,8 +173,7 @@ class Session:
             'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
         })
         env.pop('ROS_LOCALHOST_ONLY', None)  # deprecated in Jazzy; the range above replaces it
-        for name in ('ROS_SECURITY_ENABLE', 'ROS_SECURITY_STRATEGY', 'ROS_SECURITY_KEYSTORE',
-                     'ROS_SECURITY_ENCLAVE_OVERRIDE'):
+        for name in SECURITY_VARIABLES:
             env.pop(name, None)   # secured only when this session asks (an inherited setting would half-apply)
         if self.security is not None:
             env.update(self.security.environment())
@@ -292,8 +291,8 @@ class Session:
             # The observer discovers like the nodes do (rcl reads these at init).
             security = self.security.environment() if self.security is not None else {}
             saved = {name: os.environ.get(name) for name in
-                     (*self.discovery.environment(), *self.discovery.unset, *security)}
-            for name in self.discovery.unset:
+                     (*self.discovery.environment(), *self.discovery.unset, *SECURITY_VARIABLES)}
+            for name in (*self.discovery.unset, *SECURITY_VARIABLES):
                 os.environ.pop(name, None)
             os.environ.update(self.discovery.environment())
             os.environ.update(security)
