@@ -11,7 +11,7 @@ import time
 
 import pytest
 import yaml
-from coalition_interfaces.msg import AgentMessageBatch, AgentStatus
+from coalition_interfaces.msg import AgentMessageBundle, AgentStatus
 from geometry_msgs.msg import Twist
 from rosgraph_msgs.msg import Clock
 
@@ -70,9 +70,9 @@ class SimWindow:
             return [msg for stamp, msg in self.received if start <= stamp < start + sim_seconds]
 
 
-def information_from(batches, sender):
-    # The batch topic carries every agent's batches, messages as columns (kinds: 8 = INFORMATION).
-    return sum(1 for b in batches if b.sender == sender for kind in b.kinds if kind == 8)
+def information_from(bundles, sender):
+    # The bundle topic carries every agent's batches, messages as columns (kinds: 8 = INFORMATION).
+    return sum(1 for bundle in bundles for b in bundle.batches if b.sender == sender for kind in b.kinds if kind == 8)
 
 
 def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
@@ -133,7 +133,7 @@ def test_set_parameters_on_hosted_schema_agents(session, config_dir, tmp_path):
     assert slow and max(c.linear.x for c in slow) <= 0.03 + 1e-9
 
     # stream_rate of the helper: its INFORMATION messages to the leader.
-    inbox = SimWindow(node, AgentMessageBatch, '/coalition/batches', CHANNEL_QOS)
+    inbox = SimWindow(node, AgentMessageBundle, '/coalition/bundles', CHANNEL_QOS)
     before = information_from(inbox.collect(3.0), HELPER)
     assert set_one(session, f'/{HELPER}/schema_agent', 'stream_rate', 1.0).successful
     inbox.collect(1.2)

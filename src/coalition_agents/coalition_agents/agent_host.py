@@ -6,7 +6,7 @@ takes tens of seconds and their contention, not the algorithm, would dominate th
 component container, every agent here is still its own, unchanged :class:`~.schema_agent_node.SchemaAgentNode` with its
 own name, parameters, publishers and subscriptions on the real topics (``/<robot>/coalition``, the bridge's sensor
 topics and services); only the process, the DDS participant, the executor and the channel's endpoints are shared: ONE
-:class:`~.transport.channel_hub.ChannelHub` (one publisher and subscription of ``<team>/coalition/batches``, one timer)
+:class:`~.transport.channel_hub.ChannelHub` (one publisher and subscription of ``<team>/coalition/bundles``, one timer)
 serves every hosted agent -- not one subscription and timer per agent (``executor: multi``: each agent has its own).
 One executor runs every node's callbacks; each node's callbacks stay mutually exclusive (its default callback group),
 so an agent sees its events one at a time, as in its own process. ``executor``: ``single`` (default) -- rclpy's
@@ -32,8 +32,8 @@ Parameters (all read-only: they shape the process at start-up):
 * ``agent_parameters`` (path, optional): one more ROS 2 parameter file for the hosted nodes only,
   after the host's own parameter files (a later file's value wins).
 * ``team_namespace`` (default '': the host's namespace): where the channel lives.
-* ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel`` and ``.../batches``, wait
-  up to this long for the recorder to subscribe to both before creating the agents.
+* ``wait_for_recorder`` (s, default 0): offer ``<team>/coalition/channel``, ``.../batches`` and ``.../bundles``, wait
+  up to this long for the recorder to subscribe to all three before creating the agents.
 * ``share_solution_spaces`` (default true): the hosted agents share one solution-space cache
   per schema library and costs file (:class:`~.core.solution_space.SolutionSpaceCache`): robots
   of equal capabilities reuse each other's generated spaces instead of generating them again.
@@ -64,7 +64,7 @@ from collab_tools.core.settings import Setting, SettingsSchema
 from collab_tools.node_support import ConfigurationError, stop_signal_handling
 from collab_tools.parameters import NodeParameters
 
-from .transport.agent_channel import CHANNEL_TOPIC, batch_topic
+from .transport.agent_channel import CHANNEL_TOPIC, batch_topic, bundle_topic
 from .transport.channel_hub import ChannelHub
 from .core.cooperative_work import CooperativeWork
 from .host_runtime import profiled, tune_collector
@@ -167,12 +167,13 @@ class AgentHost(Node):
         first requests of the search are recorded too (a recorder subscribes only to offered topics)."""
         if self.wait_for_recorder <= 0:
             return True
-        from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
+        from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, AgentMessageBundle
         channel = self.names.team(CHANNEL_TOPIC)
-        topics = [channel, batch_topic(channel)]
-        # The batch topic carries batches, the shared topic single messages (agent_channel).
-        publishers = [self.create_publisher(AgentMessage if topic == channel else AgentMessageBatch, topic,
-                                            qos.RELIABLE) for topic in topics]
+        # The shared topic carries single messages, the batch topic single batches (tools), the
+        # bundle topic every batch the agents send (agent_channel).
+        types = {channel: AgentMessage, batch_topic(channel): AgentMessageBatch, bundle_topic(channel): AgentMessageBundle}
+        topics = list(types)
+        publishers = [self.create_publisher(types[topic], topic, qos.RELIABLE) for topic in topics]
         def recorded(topic: str, publisher) -> bool:
             # Agent processes subscribe to the channel topics too: only another node counts.
             return publisher.get_subscription_count() > 0 and any(

@@ -9,8 +9,8 @@ dynamic ones apply at run time), converts messages, owns the timers and QoS, and
   topics (QoS SENSOR_IN) are what the sensors retrieve: ``fiducials`` (each detected robot or
   object X gives F_R(X, robot)), ``gps``, ``scan``, ``bumper`` (:class:`~.core.live_sensing.LiveSensing`;
   a report retrieving new information makes the agent reason at once); ``cmd_vel`` if ``drive``;
-* the agent channel (:class:`~.transport.agent_channel.AgentChannel`: batches on
-  ``<team>/coalition/batches``, one subscription per process, link model, retries, exactly-once
+* the agent channel (:class:`~.transport.agent_channel.AgentChannel`: batches in bundles on
+  ``<team>/coalition/bundles``, one subscription per process, link model, retries, exactly-once
   delivery, commitments): requests, offers, negotiation, streamed INFORMATION values (the stream
   timer runs only while the robot holds a coalition);
 * ``coalition`` (coalition_interfaces/AgentStatus, LATCHED): its typed state, the coalition, its

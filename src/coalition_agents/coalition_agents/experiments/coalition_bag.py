@@ -1,8 +1,9 @@
 """Reading a recorded coalition run: the agents' statuses and the channel traffic from its bag.
 
-The recorder of a simulated run keeps ``/coalition/channel``, the batch topic
-``/coalition/batches`` (older bags: every robot's inbox ``/coalition/channel/<robot>``) and every
-``/<robot>/coalition`` status (AgentStatus);
+The recorder of a simulated run keeps ``/coalition/channel``, the bundle topic
+``/coalition/bundles`` (every batch the agents send, AgentMessageBundle), the batch topic
+``/coalition/batches`` (single batches from tools; older bags: every batch, and before that every
+robot's inbox ``/coalition/channel/<robot>``) and every ``/<robot>/coalition`` status (AgentStatus);
 :func:`read_coalition_bag` turns them into a :class:`CoalitionRun`, and the functions below
 measure it (from the agents' own stamps: a status is stamped when it is published, a channel
 message when it leaves the link model, i.e. after its sampled delay):
@@ -52,6 +53,8 @@ CHANNEL = '/coalition/channel'
 #: the team's batch topic (every agent's batches, AgentMessageBatch columns); older bags have one
 #: inbox topic per robot, ``/coalition/channel/<robot>``, of nested batches (read too)
 BATCHES = '/coalition/batches'
+#: the team's bundle topic: every batch the agents of one process send in one step (AgentMessageBundle)
+BUNDLES = '/coalition/bundles'
 STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
 #: States that release a robot from the coalition it was committed to.
 RELEASED = (AgentState.IDLE, AgentState.FAILED, AgentState.SEARCHING)
@@ -157,19 +160,28 @@ def status_record(msg) -> StatusRecord:
                               for c in getattr(msg, 'commitments', ())), int(getattr(msg, 'session', 0)))
 
 
+def _add_batch(run: CoalitionRun, batch) -> None:
+    """The logical messages of one AgentMessageBatch of columns (every piggybacked ACK as one)."""
+    stamp = _stamp(batch.header)
+    run.messages.extend(MessageRecord(stamp, batch.sender, batch.recipient, kind, members, cost)
+                        for kind, members, cost in message_rows(batch))
+    run.messages.extend(MessageRecord(stamp, batch.sender, batch.recipient, MessageKind.ACK)
+                        for _ in batch.acked_ids)
+
+
 def read_coalition_bag(bag: Path) -> CoalitionRun:
     """Statuses (``/<robot>/coalition``) and channel messages of a recorded run."""
     from collab_tools.core.bag_analysis import read_messages
     run = CoalitionRun()
     for topic, _, msg in read_messages(Path(bag)):
-        if topic in (CHANNEL, BATCHES) or topic.startswith(CHANNEL + '/'):  # shared topic, batches, old inboxes
+        if topic in (CHANNEL, BATCHES, BUNDLES) or topic.startswith(CHANNEL + '/'):  # + old inboxes
             run.ros_messages += 1
             stamp = _stamp(msg.header)
-            if hasattr(msg, 'kinds'):  # an AgentMessageBatch of columns, stamped when it left the link
-                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, kind, members, cost)
-                                    for kind, members, cost in message_rows(msg))
-                run.messages.extend(MessageRecord(stamp, msg.sender, msg.recipient, MessageKind.ACK)
-                                    for _ in msg.acked_ids)
+            if hasattr(msg, 'batches'):  # an AgentMessageBundle: its batches, each stamped when it left the link
+                for batch in msg.batches:
+                    _add_batch(run, batch)
+            elif hasattr(msg, 'kinds'):  # an AgentMessageBatch of columns, stamped when it left the link
+                _add_batch(run, msg)
             elif hasattr(msg, 'acked_ids'):  # an older bag's AgentMessageBatch of nested messages
                 run.messages.extend(MessageRecord(stamp, m.sender, m.receiver, int(m.kind), tuple(m.members),
                                                   float(m.cost)) for m in msg.messages)
@@ -355,7 +367,7 @@ def kind_totals(run: CoalitionRun) -> dict[str, int]:
 
 
 
-__all__ = ['BATCHES', 'CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE',
+__all__ = ['BATCHES', 'BUNDLES', 'CHANNEL', 'CoalitionRun', 'CommitmentRecord', 'LeaderTimeline', 'MessageRecord', 'RELEASED', 'STATUS_TYPE',
            'StatusRecord', 'commitment_check', 'commitments', 'conflicting_commitments', 'kind_totals',
            'leader_timeline', 'message_counts', 'read_coalition_bag', 'shared_commitments', 'status_record',
            'status_topic']

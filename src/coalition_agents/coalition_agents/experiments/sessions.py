@@ -27,7 +27,7 @@ from ..core.errors import ConfigError
 from ..core.sim_scenarios import (
     Placement, SensorSettings, agent_parameter_file, bridge_scenario, capability_file, capability_text,
 )
-from .coalition_bag import BATCHES, status_topic
+from .coalition_bag import BATCHES, BUNDLES, status_topic
 
 Log = Callable[[str], None]
 
@@ -142,8 +142,10 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
         return agent_parameter_file(common, {robot: per_robot[robot] for robot in group}, AGENT_NODE)
     experiment = load_experiment(config_dir / 'experiments' / EXPERIMENT_FILE)
     experiment['timeout'] = setup.timeout_s
-    # What the analysis reads (coalition_bag): the channel's batches and every robot's status.
-    experiment['record']['topics'] = list(dict.fromkeys(list(experiment['record']['topics']) + [BATCHES]
+    # What the analysis reads (coalition_bag): the channel's bundles and batches, every robot's status.
+    # The recorder keeps the agents' clock (the bag's receive stamps on the same time line).
+    experiment['record']['use_sim_time'] = setup.use_sim_time
+    experiment['record']['topics'] = list(dict.fromkeys(list(experiment['record']['topics']) + [BUNDLES, BATCHES]
                                                         + [status_topic(r) for r in robots]))
     nodes = []
     for node in experiment['nodes']:

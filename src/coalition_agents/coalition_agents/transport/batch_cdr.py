@@ -22,7 +22,7 @@ a uint32 count and its elements. :class:`WireCheck` compares both functions with
 from __future__ import annotations
 
 import struct
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from ..core.transport.batch_columns import encode_batch
 from ..core.transport.batching import Batch
@@ -54,10 +54,10 @@ def _string(out: bytearray, text: str) -> None:
     out += b'\x00'
 
 
-def encode_cdr(columns: dict[str, Any], stamp_ns: int = 0) -> bytearray:
-    """The serialized AgentMessageBatch of ``columns`` (encode_batch's dict: sender, recipient,
-    sequence, session, acked_ids and the columns), stamped ``stamp_ns`` (:func:`set_stamp` changes it later)."""
-    out = bytearray(CDR_LE)
+def _write_batch(out: bytearray, columns: dict[str, Any], stamp_ns: int) -> None:
+    """Append one AgentMessageBatch to the stream ``out`` (alignment is relative to the stream's
+    origin, so a batch inside a bundle is written in place, not copied from its own bytes)."""
+    _pad(out, 4)
     out += _STAMP.pack(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000)
     _string(out, '')  # header.frame_id
     _string(out, columns['sender'])
@@ -78,6 +78,25 @@ def encode_cdr(columns: dict[str, Any], stamp_ns: int = 0) -> bytearray:
         elif count:
             _pad(out, 8)
             out += struct.pack(f'<{count}{kind}', *values)
+
+
+def encode_cdr(columns: dict[str, Any], stamp_ns: int = 0) -> bytearray:
+    """The serialized AgentMessageBatch of ``columns`` (encode_batch's dict: sender, recipient,
+    sequence, session, acked_ids and the columns), stamped ``stamp_ns`` (:func:`set_stamp` changes it later)."""
+    out = bytearray(CDR_LE)
+    _write_batch(out, columns, stamp_ns)
+    return out
+
+
+def encode_bundle(batches: Sequence[tuple[dict[str, Any], int]], stamp_ns: int = 0) -> bytearray:
+    """The serialized AgentMessageBundle of ``batches`` ((columns, stamp_ns) each), stamped ``stamp_ns``."""
+    out = bytearray(CDR_LE)
+    out += _STAMP.pack(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000)
+    _string(out, '')  # header.frame_id
+    _pad(out, 4)
+    out += _U32.pack(len(batches))
+    for columns, batch_stamp in batches:
+        _write_batch(out, columns, batch_stamp)
     return out
 
 
@@ -117,6 +136,24 @@ class _Reader:
         self.offset = end
         return text
 
+    def skip_string(self) -> None:
+        length = self.count()
+        if length < 1 or self.offset + length > len(self.data):
+            raise ValueError('a string past the end of the data')
+        self.offset += length
+
+    def skip_numbers(self, kind: str) -> None:
+        count = self.count()
+        if kind == 's':
+            for _ in range(count):
+                self.skip_string()
+            return
+        if kind != 'B' and count:
+            self.align(8)
+        self.offset += count * (1 if kind == 'B' else 8)
+        if self.offset > len(self.data):
+            raise ValueError('an array past the end of the data')
+
     def numbers(self, kind: str) -> list:
         count = self.count()
         if kind == 'B':
@@ -150,9 +187,48 @@ def peek_addresses(data: bytes) -> tuple[str, str] | None:
     return sender, recipient
 
 
+def _read_batch(reader: _Reader) -> dict[str, Any]:
+    """One AgentMessageBatch from the reader's offset (batch_from_ros's fields plus ``stamp_ns``)."""
+    data = reader.data
+    reader.align(4)
+    sec, nanosec = _STAMP.unpack_from(data, reader.offset)
+    reader.offset += 8
+    reader.string()  # header.frame_id
+    result: dict[str, Any] = {'stamp_ns': sec * 1_000_000_000 + nanosec, 'sender': reader.string(),
+                              'recipient': reader.string()}
+    reader.align(8)
+    result['sequence'], result['session'] = _U64.unpack_from(data, reader.offset)[0], \
+        _U64.unpack_from(data, reader.offset + 8)[0]
+    reader.offset += 16
+    for name, kind in ARRAY_FIELDS:
+        result[name] = [reader.string() for _ in range(reader.count())] if kind == 's' else reader.numbers(kind)
+    return result
+
+
+def _skip_batch_rest(reader: _Reader) -> None:
+    """Move past the rest of a batch whose sender and recipient were just read."""
+    reader.align(8)
+    reader.offset += 16  # sequence, session
+    for _, kind in ARRAY_FIELDS:
+        reader.skip_numbers(kind)
+
+
 def decode_cdr(data: bytes) -> dict[str, Any]:
     """The fields of a serialized AgentMessageBatch as :func:`~.batch_wire.batch_from_ros` gives them
     (plus ``stamp_ns``); ValueError if the bytes are not a CDR_LE batch this reader can read."""
+    if data[:4] != CDR_LE:
+        raise ValueError(f'encapsulation {bytes(data[:4]).hex()} (this reader reads CDR_LE, 00010000)')
+    try:
+        return _read_batch(_Reader(data))
+    except (struct.error, UnicodeDecodeError) as exc:
+        raise ValueError(f'not an AgentMessageBatch: {exc}') from None
+
+
+def decode_bundle(data: bytes, wanted: Callable[[str, str], bool] = lambda sender, recipient: True
+                  ) -> tuple[int, list[dict[str, Any]]]:
+    """(stamp_ns, the batches) of a serialized AgentMessageBundle: every batch whose (sender,
+    recipient) ``wanted`` accepts, decoded as :func:`decode_cdr` decodes one; the others are
+    skipped without being read. ValueError if the bytes are not a CDR_LE bundle this reader can read."""
     if data[:4] != CDR_LE:
         raise ValueError(f'encapsulation {bytes(data[:4]).hex()} (this reader reads CDR_LE, 00010000)')
     try:
@@ -160,17 +236,21 @@ def decode_cdr(data: bytes) -> dict[str, Any]:
         sec, nanosec = _STAMP.unpack_from(data, STAMP_OFFSET)
         reader.offset = STAMP_OFFSET + 8
         reader.string()  # header.frame_id
-        result: dict[str, Any] = {'stamp_ns': sec * 1_000_000_000 + nanosec, 'sender': reader.string(),
-                                  'recipient': reader.string()}
-        reader.align(8)
-        result['sequence'], result['session'] = _U64.unpack_from(data, reader.offset)[0], \
-            _U64.unpack_from(data, reader.offset + 8)[0]
-        reader.offset += 16
-        for name, kind in ARRAY_FIELDS:
-            result[name] = [reader.string() for _ in range(reader.count())] if kind == 's' else reader.numbers(kind)
+        batches = []
+        for _ in range(reader.count()):
+            start = reader.offset
+            reader.align(4)
+            reader.offset += 8
+            reader.skip_string()  # header.frame_id
+            sender, recipient = reader.string(), reader.string()
+            if wanted(sender, recipient):
+                reader.offset = start
+                batches.append(_read_batch(reader))
+            else:
+                _skip_batch_rest(reader)
     except (struct.error, UnicodeDecodeError) as exc:
-        raise ValueError(f'not an AgentMessageBatch: {exc}') from None
-    return result
+        raise ValueError(f'not an AgentMessageBundle: {exc}') from None
+    return sec * 1_000_000_000 + nanosec, batches
 
 
 #: batches :class:`WireCheck` compares (every field used, empty and non-empty arrays, odd lengths)
@@ -189,13 +269,20 @@ SAMPLES = (
 
 
 class WireCheck:
-    """Whether the middleware reads :func:`encode_cdr`'s bytes as the batch they encode and
-    :func:`decode_cdr` reads the middleware's bytes (``serialize(columns, stamp_ns) -> bytes`` and
-    ``fields(bytes) -> dict``, rclpy's, supplied by the caller; padding and trailing bytes are not
-    compared: the middleware leaves them unset), on :data:`SAMPLES`; checked once, at the first question."""
+    """Whether the middleware reads :func:`encode_cdr`'s and :func:`encode_bundle`'s bytes as the
+    batches they encode and :func:`decode_cdr` / :func:`decode_bundle` read the middleware's bytes
+    (``serialize(columns, stamp_ns) -> bytes``, ``fields(bytes) -> dict`` for one batch and
+    ``serialize_bundle([(columns, stamp_ns)], stamp_ns) -> bytes``, ``bundle_fields(bytes) ->
+    (stamp_ns, [dict])`` for a bundle: rclpy's, supplied by the caller; padding and trailing bytes are
+    not compared: the middleware leaves them unset), on :data:`SAMPLES` -- in a bundle each batch
+    starts at another alignment, so the bundle's samples put the batches at every offset modulo 8;
+    checked once, at the first question."""
 
-    def __init__(self, serialize: Callable[[dict, int], bytes], fields: Callable[[bytes], dict]):
+    def __init__(self, serialize: Callable[[dict, int], bytes], fields: Callable[[bytes], dict],
+                 serialize_bundle: Callable[[list, int], bytes] | None = None,
+                 bundle_fields: Callable[[bytes], tuple[int, list[dict]]] | None = None):
         self._serialize, self._fields = serialize, fields
+        self._serialize_bundle, self._bundle_fields = serialize_bundle, bundle_fields
         self._result: tuple[bool, str] | None = None
 
     def result(self) -> tuple[bool, str]:
@@ -219,8 +306,29 @@ class WireCheck:
                 return False, 'its batches read back differently'
             if self._fields(bytes(encode_cdr(columns, stamp))) != wanted:
                 return False, 'it reads these batches differently'
+        if self._serialize_bundle is None or self._bundle_fields is None:
+            return True, ''
+        batches = bundle_samples()
+        wanted_batches = [{**columns, 'stamp_ns': batch_stamp} for columns, batch_stamp in batches]
+        theirs = self._serialize_bundle(batches, stamp)
+        read_stamp, read = decode_bundle(theirs)
+        if read_stamp != stamp or [{key: r[key] for key in w} for r, w in zip(read, wanted_batches)] != wanted_batches \
+                or len(read) != len(wanted_batches):
+            return False, 'its bundles read back differently'
+        if self._bundle_fields(bytes(encode_bundle(batches, stamp))) != (stamp, wanted_batches):
+            return False, 'it reads these bundles differently'
         return True, ''
 
 
-__all__ = ['ARRAY_FIELDS', 'CDR_LE', 'SAMPLES', 'WireCheck', 'batch_to_cdr', 'decode_cdr', 'encode_cdr', 'peek_addresses',
-           'set_stamp']
+def bundle_samples() -> list[tuple[dict[str, Any], int]]:
+    """The samples in a bundle, each batch preceded by sender names of 1..8 characters: the batches
+    start at every offset modulo 8 (the alignment of their 64-bit fields depends on it)."""
+    batches = []
+    for length in range(1, 9):
+        for columns in SAMPLES:
+            batches.append(({**columns, 'sender': 's' * length}, 1_795_681_953_000_000_000 + length))
+    return batches
+
+
+__all__ = ['ARRAY_FIELDS', 'CDR_LE', 'SAMPLES', 'WireCheck', 'batch_to_cdr', 'bundle_samples', 'decode_bundle',
+           'decode_cdr', 'encode_bundle', 'encode_cdr', 'peek_addresses', 'set_stamp']

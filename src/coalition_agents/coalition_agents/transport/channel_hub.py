@@ -3,16 +3,25 @@
 One hub per process (a ``schema_agent_host`` with all its agents, or a standalone ``schema_agent``)
 owns, on its node:
 
-* ONE publisher and ONE subscription on the team's batch topic ``<team>/coalition/batches``
-  (``coalition_interfaces/AgentMessageBatch``, columns). The subscription takes the batches
-  serialized (``raw``) and reads each one's ``recipient`` from its first bytes
-  (:func:`~.batch_wire.peek_recipient`): batches for robots this process does not host are
-  dropped without being deserialised; the others go to their robot's channel. Why one topic and
-  one subscription per process, not one inbox topic and subscription per agent: rclpy's executor
-  rebuilds its wait set from every entity of every node at each wake-up, and hands a subscription
-  one message per wake-up; twenty inboxes per process made the executor's bookkeeping, not the
-  agents, dominate. Any process that subscribes to the topic -- another host, a standalone agent on
-  a real robot, ``ros2 topic echo``, the bag recorder -- sees every batch.
+* ONE publisher and ONE subscription on the team's bundle topic ``<team>/coalition/bundles``
+  (``coalition_interfaces/AgentMessageBundle``): every batch (``AgentMessageBatch``, columns) the
+  process's agents send in one processing step leaves in ONE bundle, published at the end of the
+  callback that released them (:meth:`ChannelHub.publish` queues, :meth:`_send_bundle` publishes;
+  the guard condition below ends a step that has no callback of its own). Why: the hosts of a
+  20-robot column published ~9,000 batches each per search, 36 per step, and every one was copied
+  to each reader, taken by every host and written by the recorder (the message's comment has the
+  figures). The subscription takes bundles serialized (``raw``) and decodes only the batches
+  addressed to robots this process hosts (:func:`~.batch_cdr.decode_bundle` skips the others
+  unread); they go to their robot's channel. Why one topic and one subscription per process, not
+  one inbox topic and subscription per agent: rclpy's executor rebuilds its wait set from every
+  entity of every node at each wake-up, and hands a subscription one message per wake-up; twenty
+  inboxes per process made the executor's bookkeeping, not the agents, dominate. Any process that
+  subscribes to the topic -- another host, a standalone agent on a real robot, ``ros2 topic
+  echo``, the bag recorder -- sees every batch.
+* ONE subscription on the batch topic ``<team>/coalition/batches``: single batches from tools
+  and tests (the agents publish bundles), handled like a bundle's batches; a batch's
+  ``recipient`` is read from its first bytes (:func:`~.batch_cdr.peek_addresses`) and batches for
+  robots this process does not host are dropped without being deserialised.
 * ONE subscription on the shared topic ``<team>/coalition/channel`` (single ``AgentMessage`` s
   from tools and tests), handed to the addressed hosted robot (every hosted robot but the sender
   for a message without receiver).
@@ -22,10 +31,10 @@ owns, on its node:
   per agent -- and back to ``tick_s`` the moment a channel queues something (:meth:`wake`).
 * ONE guard condition that ends the processing step: every channel that queued messages since
   is flushed (one batch per recipient) when the executor runs it, after the callbacks that were
-  ready together. A batch between two agents of this process is published (the recorder and any
-  listener see it) and handed to its recipient's channel in-process at the same callback, as
-  the core batch: the subscription skips it when it comes back, so it is neither deserialised
-  nor queued behind the team's traffic.
+  ready together, and the step's bundle leaves. A batch between two agents of this process is in
+  the bundle (the recorder and any listener see it) and handed to its recipient's channel
+  in-process at the same callback, as the core batch: the subscription skips it when it comes
+  back, so it is neither decoded nor queued behind the team's traffic.
 
 The reception loop drains the subscription for at most ``drain_slice_s`` per callback (the
 executor hands a subscription one message per wake-up; a search burst queues hundreds), then
@@ -48,10 +57,11 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from collab_tools import qos as standard_qos
 from collab_tools.input_guard import InputGuard, MalformedInput
-from coalition_interfaces.msg import AgentMessage, AgentMessageBatch
+from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, AgentMessageBundle
 
-from .batch_cdr import WireCheck, decode_cdr
-from .batch_wire import batch_from_ros, peek_addresses
+from ..core.transport.batch_columns import encode_batch
+from .batch_cdr import WireCheck, decode_bundle, decode_cdr, encode_bundle
+from .batch_wire import batch_from_ros, batch_to_ros, peek_addresses
 
 if TYPE_CHECKING:
     from .agent_channel import AgentChannel
@@ -64,6 +74,12 @@ CHANNEL_QOS = QoSProfile(history=standard_qos.RELIABLE.history, depth=QUEUE_DEPT
 #: the single-message channel and the batch topic under the team namespace (``names.team(...)``)
 CHANNEL_TOPIC = 'coalition/channel'
 BATCH_TOPIC = 'coalition/batches'
+BUNDLE_TOPIC = 'coalition/bundles'
+
+
+def bundle_topic_of(batch_topic: str) -> str:
+    """The bundle topic beside a batch topic (``/coalition/batches`` -> ``/coalition/bundles``)."""
+    return batch_topic[:-len('batches')] + 'bundles' if batch_topic.endswith('batches') else batch_topic + '_bundles'
 
 
 def _serialize(columns: dict, stamp_ns: int) -> bytes:
@@ -72,15 +88,39 @@ def _serialize(columns: dict, stamp_ns: int) -> bytes:
     return serialize_message(msg)
 
 
-def _fields(data: bytes) -> dict:
-    msg = deserialize_message(data, AgentMessageBatch)
+def _stamped_fields(msg: AgentMessageBatch) -> dict:
     fields = {key: value if isinstance(value, (str, int)) else list(value)
               for key, value in batch_from_ros(msg).items()}
-    return {**fields, 'stamp_ns': msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec}
+    return {**fields, 'stamp_ns': _stamp_ns(msg.header)}
+
+
+def _stamp_ns(header) -> int:
+    return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+
+
+def _fields(data: bytes) -> dict:
+    return _stamped_fields(deserialize_message(data, AgentMessageBatch))
+
+
+def _typed_bundle(batches, stamp_ns: int) -> AgentMessageBundle:
+    """``batches``: (AgentMessageBatch or columns, stamp_ns) each."""
+    msg = AgentMessageBundle()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    for batch, batch_stamp in batches:
+        typed = batch if isinstance(batch, AgentMessageBatch) else AgentMessageBatch(**batch)
+        typed.header.stamp.sec, typed.header.stamp.nanosec = divmod(batch_stamp, 1_000_000_000)
+        msg.batches.append(typed)
+    return msg
+
+
+def _bundle_fields(data: bytes) -> tuple[int, list[dict]]:
+    msg = deserialize_message(data, AgentMessageBundle)
+    return _stamp_ns(msg.header), [_stamped_fields(batch) for batch in msg.batches]
 
 
 #: does this process's middleware agree with batch_cdr (checked at the first hub)
-WIRE_CHECK = WireCheck(_serialize, _fields)
+WIRE_CHECK = WireCheck(_serialize, _fields, lambda batches, stamp: serialize_message(_typed_bundle(batches, stamp)),
+                       _bundle_fields)
 
 
 class ChannelHub:
@@ -96,14 +136,21 @@ class ChannelHub:
         self.batches_received = 0      # batches for a hosted robot
         self.batches_skipped = 0       # batches for robots hosted elsewhere (not deserialised)
         self.batch_topic, self.channel_topic = batch_topic, channel_topic
+        self.bundle_topic = bundle_topic_of(batch_topic)
+        self.bundles_published = 0
+        self.batches_published = 0
+        self._outgoing: list = []      # (core batch, stamp_ns): this step's bundle, not yet published
+        self._triggered = False        # the guard condition is triggered and has not run yet
         inputs = self.inputs = InputGuard.of(node)  # malformed batches: dropped, counted, logged once per kind
         #: batches are published and read as serialized bytes (:mod:`.batch_cdr`), not typed messages
         self.wire_bytes, why_not = WIRE_CHECK.result()
         if not self.wire_bytes:
             node.get_logger().info(f'channel batches go through typed messages: {why_not}')
-        self.publisher = node.create_publisher(AgentMessageBatch, batch_topic, CHANNEL_QOS,
+        self.publisher = node.create_publisher(AgentMessageBundle, self.bundle_topic, CHANNEL_QOS,
                                                event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         events = SubscriptionEventCallbacks(use_default_callbacks=False)
+        self.bundle_subscription = inputs.subscribe(AgentMessageBundle, self.bundle_topic, self._on_bundle, CHANNEL_QOS,
+                                                    raw=True, event_callbacks=events)
         self.batch_subscription = inputs.subscribe(AgentMessageBatch, batch_topic, self._on_batch, CHANNEL_QOS,
                                                    raw=True, event_callbacks=events)
         self.single_subscription = inputs.subscribe(AgentMessage, channel_topic, self._on_single, CHANNEL_QOS,
@@ -124,24 +171,42 @@ class ChannelHub:
             del self.channels[channel.robot]
         self._flushing.pop(channel.robot, None)
 
-    def publish(self, msg: AgentMessageBatch | bytes, batch) -> None:
-        """Publish the batch ``batch`` as ``msg`` (its serialized bytes or typed message); one for a
-        robot of this process is also handed to its channel in-process (the core batch: at the next
-        guard-condition callback, no deserialisation, no codec) and skipped when the subscription
-        takes it back -- it is published all the same, for the recorder and any other listener."""
-        self.publisher.publish(msg)
+    def publish(self, batch, stamp_ns: int) -> None:
+        """Send the core batch ``batch`` (stamped when it left the link model) in this step's bundle,
+        published at the end of the current callback (or by the guard condition); one for a robot
+        of this process is also handed to its channel in-process (at the next guard-condition
+        callback, no decoding, no codec) and skipped when the subscription takes it back -- it is
+        in the bundle all the same, for the recorder and any other listener."""
+        self._outgoing.append((batch, stamp_ns))
         channel = self.channels.get(batch.recipient)
         if channel is not None and batch.sender in self.channels:
-            if not self._local and not self._flushing:
-                self.flush_trigger.trigger()
             self._local.append((channel, batch))
+        self._trigger()
 
     def request_flush(self, channel: 'AgentChannel') -> None:
         """End ``channel``'s processing step once the executor's ready callbacks have run."""
-        if not self._flushing and not self._local:
-            self.flush_trigger.trigger()
+        self._trigger()
         self._flushing[channel.robot] = channel
         self.wake()
+
+    def _trigger(self) -> None:
+        if not self._triggered:
+            self._triggered = True
+            self.flush_trigger.trigger()
+
+    def _send_bundle(self) -> None:
+        """Publish the batches released since the last bundle as one bundle (none: nothing)."""
+        if not self._outgoing:
+            return
+        outgoing, self._outgoing = self._outgoing, []
+        stamp_ns = max(stamp for _, stamp in outgoing)
+        if self.wire_bytes:
+            msg = bytes(encode_bundle([(encode_batch(batch), stamp) for batch, stamp in outgoing], stamp_ns))
+        else:
+            msg = _typed_bundle([(batch_to_ros(batch), stamp) for batch, stamp in outgoing], stamp_ns)
+        self.publisher.publish(msg)
+        self.bundles_published += 1
+        self.batches_published += len(outgoing)
 
     def wake(self) -> None:
         """Something is pending: poll every ``tick_s`` from now on (until every channel is idle)."""
@@ -157,9 +222,11 @@ class ChannelHub:
     def _on_flush(self) -> None:
         """End the processing step of every channel that queued messages, then hand over the
         batches between this process's agents (what they answer goes out at the next call)."""
+        self._triggered = False
         flushing, self._flushing = self._flushing, {}
         for channel in flushing.values():
             channel.flush()
+        self._send_bundle()  # the step's batches
         local, self._local = self._local, deque()
         touched: dict[str, AgentChannel] = {}
         for channel, batch in local:
@@ -169,22 +236,67 @@ class ChannelHub:
                 channel.accept_local(batch)
         for channel in touched.values():
             channel.deliver_urgent()
+        self._send_bundle()  # what the agents answered at once (negotiation)
 
     def _on_tick(self) -> None:
         busy = False
         for channel in list(self.channels.values()):
             busy = channel.on_tick() or busy
+        self._send_bundle()  # retries, delayed batches and ACKs due now
         if busy != self._fast:
             self._set_period(self.tick_s if busy else self.idle_tick_s)
+
+    def _on_bundle(self, data: bytes) -> None:
+        end = time.perf_counter() + self.drain_slice_s
+        touched: dict[str, AgentChannel] = {}
+        while data is not None:
+            self._accept_bundle(data, touched)
+            data = self._take_queued(self.bundle_subscription) if time.perf_counter() < end else None
+        for channel in touched.values():
+            channel.deliver_urgent()
+        self._send_bundle()
+
+    def _accept_bundle(self, data: bytes, touched: dict) -> None:
+        skipped = 0
+
+        def wanted(sender: str, recipient: str) -> bool:
+            nonlocal skipped
+            if recipient in self.channels and sender not in self.channels:
+                return True
+            skipped += 1  # another process's robot, or handed over in-process already
+            return False
+        batches = None
+        if self.wire_bytes:
+            try:
+                batches = decode_bundle(data, wanted)[1]
+            except ValueError:
+                batches, skipped = None, 0  # rclpy reads it, or names what is wrong
+        if batches is None:
+            try:
+                msg = deserialize_message(data, AgentMessageBundle)
+                batches = [batch_from_ros(batch) for batch in msg.batches if wanted(batch.sender, batch.recipient)]
+            except Exception as exc:  # noqa: BLE001 - a malformed sample must not stop the executor
+                self.inputs.reject(self.bundle_topic, MalformedInput(
+                    f'bundle: undecodable ({type(exc).__name__}: {exc})', kind='undecodable bundle'))
+                return
+        self.batches_skipped += skipped
+        for fields in batches:
+            channel = self.channels.get(fields['recipient'])
+            if channel is None:
+                continue
+            self.batches_received += 1
+            touched[channel.robot] = channel
+            channel.accept_fields(fields)
 
     def _on_batch(self, data: bytes) -> None:
         end = time.perf_counter() + self.drain_slice_s
         touched: dict[str, AgentChannel] = {}
         while data is not None:
             self._accept(data, touched)
-            data = self._take_queued() if time.perf_counter() < end else None
+            data = self._take_queued(self.batch_subscription) if time.perf_counter() < end else None
         for channel in touched.values():
             channel.deliver_urgent()
+        self._send_bundle()
 
     def _accept(self, data: bytes, touched: dict) -> None:
         addresses = peek_addresses(data)
@@ -212,9 +324,8 @@ class ChannelHub:
         touched[channel.robot] = channel
         channel.accept_fields(fields)
 
-    def _take_queued(self) -> bytes | None:
-        """The next batch waiting in the subscription, or None (as rclpy's executor takes it)."""
-        subscription = self.batch_subscription
+    def _take_queued(self, subscription) -> bytes | None:
+        """The next message waiting in ``subscription``, or None (as rclpy's executor takes it)."""
         try:
             with subscription.handle:
                 taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
@@ -240,6 +351,7 @@ class ChannelHub:
         self._local.clear()
         self.node.destroy_timer(self.timer)
         self.node.destroy_guard_condition(self.flush_trigger)
+        self.node.destroy_subscription(self.bundle_subscription)
         self.node.destroy_subscription(self.batch_subscription)
         self.node.destroy_subscription(self.single_subscription)
         self.node.destroy_publisher(self.publisher)

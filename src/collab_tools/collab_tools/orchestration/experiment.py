@@ -7,6 +7,7 @@
                                         # rates: {/clock: 500} (Hz: the recorder's queue depths)
                                         # analysis_topics: [...] (lost messages fail the run, exit 5;
                                         # default: every recorded topic)
+                                        # use_sim_time: false (stamp on the wall clock; default true)
     nodes:
       - {package: pybullet_bridge, executable: pybullet_bridge, use_sim_time: false,
          parameters: ['{config}/params/pybullet_bridge.yaml', {scenario: '{config}/scenarios/demo_mobile.yaml'}]}
@@ -240,7 +241,13 @@ def run_experiment(path: Path, config_dir: Path, run_dir: Path | None = None,
             if session.namespace != '/' and not record.get('topics'):
                 # "Everything" of a namespaced session: its own topics, not a neighbour's.
                 recorder['exclude'] = ['/rosout', '/parameter_events', f'(?!{re.escape(session.namespace)}/).*']
-            session.start(replace(RECORDER, parameters=[recorder]))
+            # The recorder's clock stamps the bag: simulated time by default; a run whose nodes are on
+            # the wall clock records on it too (record.use_sim_time: false), and the recorder then
+            # does not take /clock at all (each tick woke its executor: a quarter of a core at 100 Hz).
+            use_sim_time = record.get('use_sim_time', True)
+            if not isinstance(use_sim_time, bool):
+                raise ExperimentError(f'experiment.record.use_sim_time: must be true or false (got {use_sim_time!r:.40})')
+            session.start(replace(RECORDER, parameters=[recorder], use_sim_time=use_sim_time))
         for spec in specs:
             if spec.host not in remote:
                 session.start(spec)
