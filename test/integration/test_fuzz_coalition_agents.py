@@ -1,26 +1,29 @@
 """Fuzzing the coalition agents (issue 16 items 1-2 and 4): the three-robot team of
 test_coalition_agents (robot_blind needs robot_helper) on the bridge gets, while it searches:
-batches whose columns disagree, a 100,000-message batch, NaN and infinite costs and hold times,
-a batch from an unknown robot, a forged commitment request without a session, 50,000 acknowledged
-ids, a flood of 300 malformed batches, single channel messages of an unknown robot and with a NaN
-value, statuses with an unknown state or of another robot, NaN fiducial and GPS reports and a
-bad /clock; once the coalition is set up, a forged RELEASE of it from another teammate and batches
-of a teammate's earlier and forged sessions. Every agent stays up, logs each kind of rejection
-once (per topic), and the coalition forms and stays set up.
+batches (single, and in bundles: the agents' own wire) whose columns disagree, a 100,000-message
+batch, NaN and infinite costs and hold times, a batch from an unknown robot, a forged commitment
+request without a session, 50,000 acknowledged ids, a flood of 300 malformed batches, single
+channel messages of an unknown robot and with a NaN value, statuses with an unknown state or of
+another robot, NaN fiducial and GPS reports and a bad /clock; once the coalition is set up, a
+forged RELEASE of it from another teammate and batches of a teammate's earlier and forged
+sessions. Every agent stays up, logs each kind of rejection once (per topic), and the coalition
+forms and stays set up.
 """
 
 import math
 import time
 
 from bridge_interfaces.msg import FiducialDetection, FiducialDetections
-from coalition_interfaces.msg import AgentMessage, AgentMessageBatch, AgentStatus, Information, NamedValue
+from coalition_interfaces.msg import (
+    AgentMessage, AgentMessageBatch, AgentMessageBundle, AgentStatus, Information, NamedValue,
+)
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 from fuzz_helpers import LATCHED, assert_rejected_once_per_kind, bad_clock, clock_rejections_ok, flood, publish_all
 from test_coalition_agents import BYSTANDER, HELPER, LEADER, STATUS, files, start_team  # noqa: F401 - files: fixture
 
-BATCHES, CHANNEL = '/coalition/batches', '/coalition/channel'
+BATCHES, BUNDLES, CHANNEL = '/coalition/batches', '/coalition/bundles', '/coalition/channel'
 DEEP = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 EMPTY = dict(kinds=[], message_ids=[], conversation_ids=[], in_reply_to=[], costs=[], hold_seconds=[],
              coalition_ids=[], reasons=[], information_counts=[], chain_lengths=[], member_counts=[], value_counts=[],
@@ -75,6 +78,13 @@ def test_coalition_agents_survive_fuzzing_and_still_form(session, ros_node, file
     publisher = publish_all(ros_node, AgentMessageBatch, BATCHES, [b for b, _ in malformed_batches()], qos=DEEP,
                             subscribers=3)
     flood(publisher, malformed_batches()[0][0], 300)
+    # The agents' own wire: a bundle whose batches are malformed (a short column; an unknown sender), and
+    # an empty bundle; the batches in it are judged as single ones (logged on the batch topic).
+    short = batch(BYSTANDER, LEADER, 10 ** 9 + 7, kinds=[7], message_ids=[3], conversation_ids=[0], in_reply_to=[0],
+                  costs=[0.0], hold_seconds=[0.0], coalition_ids=['x/1'])
+    publish_all(ros_node, AgentMessageBundle, BUNDLES, [
+        AgentMessageBundle(batches=[short, commit_request('robot_ghost', HELPER, 1, 'robot_ghost/2')]),
+        AgentMessageBundle()], qos=DEEP, subscribers=3)
     # The team searches (every agent started, announcing its session): a forged commitment request "from the
     # bystander" without a session is out of session, never held; so are 50,000 acknowledged ids.
     session.wait_for_message(f'/{LEADER}/coalition', STATUS, latched=True, timeout=30.0,
@@ -127,9 +137,9 @@ def test_coalition_agents_survive_fuzzing_and_still_form(session, ros_node, file
                'the out-of-session batches were not reported')
     assert_rejected_once_per_kind(leader_log(), BATCHES, [
         'malformed batch.messages.cost', 'malformed batch.sender', 'malformed batch.message_ids',
-        'malformed batch.conversation_ids', 'out-of-session batch'])
+        'malformed batch.conversation_ids', 'malformed batch.reasons', 'out-of-session batch'])
     assert_rejected_once_per_kind(helper_log(), BATCHES, ['malformed batch.messages.hold_seconds',
-                                                          'out-of-session batch'])
+                                                          'malformed batch.sender', 'out-of-session batch'])
     assert_rejected_once_per_kind(leader_log(), CHANNEL, ['malformed message.sender',
                                                           'malformed message.values.x'])
     for robot in agents:
