@@ -20,7 +20,9 @@ perception fault (status ``perception fault: ...``, exit code 1). Malformed repo
 counted and logged once per kind (collab_tools.input_guard), and so are reports from another
 sender than her follower or to another leader session than hers (sgcm.core.sessions). Her
 guidance carries her name and her session, a random id drawn at start: a restarted leader is a
-new session, which the follower follows from its round 1.
+new session, which the follower follows from its round 1. A round's guidance goes out once the
+follower's subscription has matched (at most ANNOUNCE_WAIT s later): guidance is volatile, and
+a restarted leader's first round would otherwise be published before discovery and lost.
 
 A move whose goal gets no result (the bridge crashed) is given up (sgcm.arm_client: a timeout and
 server loss, on the steady clock) and announced as not done; she plans the next round from the
@@ -34,13 +36,14 @@ arm_goal_timeout and arm_server_lost_after (sgcm.arm_client; also to the goal ou
 """
 
 import sys
+import time
 
 import numpy as np
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.time import Time
-from collab_tools.names import RobotNode
+from collab_tools.names import RobotNode, join
 from collab_tools.input_guard import InputGuard
 from collab_tools.node_support import EXIT_TASK_FAILED, run
 from collab_tools.parameters import NodeParameters
@@ -57,6 +60,10 @@ from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
 from .core.sessions import FollowerReports, new_session
 from .core.settings import LEADER_SETTINGS, LeaderSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
+
+
+#: s (steady) a round's guidance waits for the follower's subscription to match before it goes out anyway.
+ANNOUNCE_WAIT = 5.0
 
 
 class LeaderPlanner(Node):
@@ -96,6 +103,7 @@ class LeaderPlanner(Node):
         self.outcome = ''
         self.round_ended = None          # sim time the last round ended; frames count after + settle
         self.guidance_time = None        # sim time of the round's guidance; the follower has until + timeout
+        self.unsent = None               # (guidance, steady time) held until the follower listens
         self.estimate = None             # the camera estimate the round in progress was decided on
         self.timer = self.create_timer(0.05, self._tick)
         self.get_logger().info(
@@ -139,6 +147,8 @@ class LeaderPlanner(Node):
         phase = self.rounds.phase
         if phase is LeaderPhase.OBSERVING:
             self._observe()
+        elif phase is LeaderPhase.AWAITING_FOLLOWER and self.unsent is not None:
+            self._send_guidance()
         elif phase is LeaderPhase.AWAITING_FOLLOWER and \
                 self.get_clock().now() > self.guidance_time + self.follower_timeout:
             self.get_logger().warn(f'round {self.rounds.turn.round}: no follower report within '
@@ -219,7 +229,6 @@ class LeaderPlanner(Node):
                        state=grid_state_msg(self.task, turn.state),
                        leader_move=move_msg(self.model, LEADER, turn.action), leader_move_succeeded=succeeded,
                        recommended_follower_move=move_msg(self.model, FOLLOWER, recommended))
-        msg.header.stamp = self.get_clock().now().to_msg()
         if plan is not None:
             msg.leader_policy_moves = [move_msg(self.model, LEADER, int(a)) for a in plan.leader_actions]
             msg.leader_policy_probabilities = [float(x) for x in plan.leader_policy]
@@ -227,7 +236,25 @@ class LeaderPlanner(Node):
             msg.predicted_follower_value = plan.follower_value
             msg.stage_games = plan.stage_games
             msg.planning_seconds = plan.seconds
+        self.unsent = (msg, time.monotonic())
+        self._send_guidance()
+
+    def _send_guidance(self) -> None:
+        """Publish the round's guidance once the follower's subscription has matched (guidance is volatile: a
+        restarted leader's round 1 went out before discovery and was lost), or after ANNOUNCE_WAIT s without."""
+        msg, since = self.unsent
+        topic = self.guidance_pub.topic_name
+        readers = self.get_subscriptions_info_by_topic(topic)
+        listening = any(join(r.node_namespace, r.node_name) == self.follower.follower for r in readers) and \
+            self.guidance_pub.get_subscription_count() >= len(readers)
+        if not listening and time.monotonic() - since < ANNOUNCE_WAIT:
+            return
+        if not listening:
+            self.get_logger().warning(f'round {msg.round}: {self.follower.follower} does not subscribe to {topic} '
+                                      f'after {ANNOUNCE_WAIT:g} s; publishing the guidance anyway')
+        msg.header.stamp = self.get_clock().now().to_msg()
         self.guidance_pub.publish(msg)
+        self.unsent = None
         self.guidance_time = self.get_clock().now()
 
     def finish(self, end: TaskEnd) -> None:
