@@ -75,3 +75,14 @@ def test_a_failing_step_is_reported_and_dropped_without_stopping_the_others():
 def test_the_budget_must_be_positive():
     with pytest.raises(ValueError, match='budget_s'):
         CooperativeWork(Wakes(), budget_s=0.0)
+
+
+def test_steps_requested_first_run_before_the_others_however_long_they_take():
+    # The channel hands its agent the inbox first: the agent then reasons once with all of it.
+    log, wakes = [], Wakes()
+    work = CooperativeWork(wakes, budget_s=10.0)
+    work.request(counting_step(log, 'reason', 2))
+    work.request(counting_step(log, 'deliver', 3), first=True)
+    assert work.pending() == 2
+    work.run()
+    assert log == ['deliver', 'deliver', 'deliver', 'reason', 'reason'] and work.pending() == 0

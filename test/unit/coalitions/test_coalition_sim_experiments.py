@@ -116,7 +116,8 @@ def test_run_session_gives_the_agents_their_parameters_not_files(monkeypatch, tm
     from coalition_agents.experiments.sessions import AgentSetup, run_session
     monkeypatch.setattr(orchestration, 'run_experiment', lambda path, *args, **kwargs: path)
     placements = column_placements(3)
-    setup = AgentSetup(leaders=('robot_3',), hosted=hosted, host_processes=processes)
+    setup = AgentSetup(leaders=('robot_3',), hosted=hosted, host_processes=processes,
+                       bridge_control_period=0.05 if hosted else None)
     generated = run_session(tmp_path, config_dir.parent, 'column', placements, COLUMN_TYPES, SensorSettings(60.0, 1.5),
                             setup)
     experiment = yaml.safe_load(Path(generated).read_text())
@@ -125,6 +126,8 @@ def test_run_session_gives_the_agents_their_parameters_not_files(monkeypatch, tm
         paths = run_dir_paths(node.get('parameters', []), tmp_path)
         if node['executable'] == 'pybullet_bridge':
             assert paths == ['{run_dir}/scenario.yaml']
+            periods = [e['control_period'] for e in node['parameters'] if isinstance(e, dict) and 'control_period' in e]
+            assert periods == ([0.05] if hosted else [])   # the column's bridge_control_period, last
             continue
         assert paths == [], (node['executable'], paths)
         mappings = [e for e in node['parameters'] if isinstance(e, dict) and '/**' in e]
@@ -155,11 +158,15 @@ def test_column_config_errors_name_the_field(tmp_path):
     assert config.agent_processes == 1
     path.write_text(yaml.safe_dump({**good, 'agent_processes': 2}))
     assert load_column_config(path).agent_processes == 2
+    assert config.bridge_control_period is None
+    path.write_text(yaml.safe_dump({**good, 'bridge_control_period': 0.05}))
+    assert load_column_config(path).bridge_control_period == 0.05
     for change, message in ((({'fiducial': {'fov_deg': 60.0, 'range_m': 2.5}}), 'fiducial: each robot must see only'),
                             ({'robots': [1]}, 'robots'), ({'search_time_s': {10: 3.0}}, 'search_time_s.default'),
                             ({'search_time_s': {'default': 2.0, 'ten': 3.0}}, 'search_time_s.ten'),
                             ({'agent_processes': 0}, 'agent_processes'), ({'agent_processes': 1.5}, 'agent_processes'),
-                            ({'colour': 1}, 'colour')):
+                            ({'bridge_control_period': 0.2}, 'bridge_control_period'),
+                            ({'bridge_control_period': 0}, 'bridge_control_period'), ({'colour': 1}, 'colour')):
         path.write_text(yaml.safe_dump({**good, **change}))
         with pytest.raises(ConfigError, match=message):
             load_column_config(path)

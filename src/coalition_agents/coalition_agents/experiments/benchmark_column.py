@@ -68,7 +68,8 @@ def run_formation(config_dir: str | Path, out_dir: str | Path, log: Log = print,
             setup = AgentSetup(leaders=(placements[-1].robot,), search_time_s=config.search_time(n),
                                settle_time_s=config.settle_time_s, loss_probability=config.loss_probability,
                                link_preset=config.link_preset, use_sim_time=False, seed=index,
-                               timeout_s=config.timeout_s, host_processes=config.agent_processes)
+                               timeout_s=config.timeout_s, host_processes=config.agent_processes,
+                           bridge_control_period=config.bridge_control_period)
             run_dir = out_dir / f'column_n{n:02d}_run{index}'
             load_before, began = _load(), time.monotonic()
             result = run_session(run_dir, config_dir, f'bench_column_{n}_{index}', placements, COLUMN_TYPES,

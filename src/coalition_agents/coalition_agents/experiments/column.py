@@ -40,6 +40,8 @@ class ColumnConfig:
     timeout_s: float
     paper_time_s: Mapping[int, float]
     agent_processes: int = 1
+    #: simulated s per bridge tick (None: the bridge's own, config/params/pybullet_bridge.yaml)
+    bridge_control_period: float | None = None
 
     def search_time(self, robots: int) -> float:
         return self.search_time_s.get(str(robots), self.search_time_s['default'])
@@ -47,7 +49,8 @@ class ColumnConfig:
 
 def column_config_from_dict(data: object, path: Path) -> ColumnConfig:
     section = Fields(data, '', ('robots', 'spacing_m', 'fiducial', 'link', 'search_time_s', 'settle_time_s',
-                                'timeout_s', 'paper_time_s', 'agent_processes'), error=ConfigError)
+                                'timeout_s', 'paper_time_s', 'agent_processes', 'bridge_control_period'),
+                     error=ConfigError)
     robots = []
     for item_path, value in section.items('robots'):
         number = check_number(value, item_path, ge=2.0, error=ConfigError)
@@ -76,9 +79,13 @@ def column_config_from_dict(data: object, path: Path) -> ColumnConfig:
     processes = section.number('agent_processes', 1, ge=1.0)
     if processes != int(processes):
         raise ConfigError(f'agent_processes: must be a whole number >= 1 (got {processes!r})')
+    control = section.raw('bridge_control_period', None)
+    if control is not None:
+        # The sensors report at 10 Hz: a tick must not be longer than their period.
+        control = check_number(control, 'bridge_control_period', gt=0.0, le=0.1, error=ConfigError)
     return ColumnConfig(path, tuple(robots), spacing, sensors, preset, loss, search,
                         section.number('settle_time_s', 1.0, gt=0.0), section.number('timeout_s', 150.0, gt=0.0),
-                        paper, int(processes))
+                        paper, int(processes), control)
 
 
 def _by_robots(value: object, path: str) -> dict:

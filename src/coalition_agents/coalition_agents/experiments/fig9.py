@@ -81,7 +81,8 @@ def run(request: ExperimentRequest) -> ExperimentResult:
         setup = AgentSetup(leaders=(placements[-1].robot,), search_time_s=config.search_time(robots),
                            settle_time_s=config.settle_time_s, loss_probability=config.loss_probability,
                            link_preset=config.link_preset, use_sim_time=False, seed=index, timeout_s=config.timeout_s,
-                           host_processes=config.agent_processes)
+                           host_processes=config.agent_processes,
+                           bridge_control_period=config.bridge_control_period)
         case_dir = fresh_step_dir(run_dir, run_dir / f'n{robots:02d}')   # an interrupted try set aside
         log(f'[coalition-fig9 {index}/{len(wanted)}] column of {robots} robots (search_time '
             f'{setup.search_time_s:g} s) -> {case_dir}')

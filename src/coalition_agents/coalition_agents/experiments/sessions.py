@@ -66,6 +66,8 @@ class AgentSetup:
     discovery: Mapping | None = None
     hosts: Mapping | None = None
     process_hosts: tuple[str | None, ...] = ()
+    #: simulated s per bridge tick (its ``control_period``; None: the bridge's parameter file)
+    bridge_control_period: float | None = None
 
 
 def host_groups(robots: Sequence[str], leaders: Sequence[str], processes: int) -> list[list[str]]:
@@ -149,7 +151,10 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
                                                         + [status_topic(r) for r in robots]))
     nodes = []
     for node in experiment['nodes']:
-        if node['executable'] != 'schema_agent_host':
+        if node['executable'] == 'pybullet_bridge' and setup.bridge_control_period is not None:
+            nodes.append({**node, 'parameters': list(node.get('parameters', []))
+                          + [{'control_period': float(setup.bridge_control_period)}]})
+        elif node['executable'] != 'schema_agent_host':
             nodes.append(node)
         elif setup.hosted:
             # The experiment waits for the first host (the leaders'); the others stop with it.

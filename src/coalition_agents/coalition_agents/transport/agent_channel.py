@@ -414,7 +414,7 @@ class AgentChannel:
         if deliver_urgent:
             self.deliver_urgent()
         if self._deferred:
-            self.work.request(self._deliver_deferred)
+            self.work.request(self._deliver_deferred, first=True)
 
     def deliver_urgent(self) -> None:
         while (entry := self._deferred.pop_urgent()) is not None:
