@@ -162,8 +162,9 @@ def fig9_markdown(results: dict, acceptance: dict) -> str:
               'arrive). "Eq. (1) gaps alone": the least those gaps add for the column by the paper\'s Eq. (1) '
               '(every robot takes its first potential solution in one space); see paper_notes.md.',
               '- messages: logical channel messages (each piggybacked ACK counted as one, retries included) / '
-              'ROS messages (AgentMessageBatch: one per sender, recipient and processing step). The link model '
-              'applies per batch: one delay and one loss draw per batch, so a loss probability is per batch.',
+              'ROS messages (AgentMessageBundle: one per agent process and processing step, holding one '
+              'AgentMessageBatch per sender and recipient). The link model applies per batch: one delay and one '
+              'loss draw per batch, so a loss probability is per batch.',
               f'- Acceptance: {json.dumps(acceptance)}']
     return '\n'.join(lines) + '\n'
 
