@@ -1,6 +1,6 @@
 """Which coalitions one robot can serve at once: capability sharing versus conflict (no ROS).
 
-Paper (``shared/papers/iq_asymtre_coalitions.txt``): a task may involve "forming one or multiple
+Paper (IQ-ASyMTRe, CITATION.cff): a task may involve "forming one or multiple
 coalitions" (footnote 1); "Capability sharing is implicitly achieved through the communication of
 information" (Sec. II); in the monitoring task "the same robots can appear in different coalitions
 (such as robots 1 and 4 in this simulation), such that synergy between coalitions can be achieved"

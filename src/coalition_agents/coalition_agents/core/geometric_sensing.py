@@ -1,6 +1,6 @@
 """What a team's sensors retrieve from the robots' poses: the geometric sensing model of Fig. 7.
 
-Paper: Section V-A-2 and Fig. 7 (``shared/papers/iq_asymtre_coalitions.txt``): "The FOVs of the
+Paper (IQ-ASyMTRe, CITATION.cff): Section V-A-2 and Fig. 7: "The FOVs of the
 fiducial sensors are restricted to be 180 deg facing forward with a maximum range of 4 m" -- a
 fiducial retrieves the relative position F_R(X, local) of every robot X inside its field of view
 and range, and capability sharing is possible only in that configuration. This module is that

@@ -1,6 +1,6 @@
 """Information types, information instances, referents and the generality order.
 
-Paper (IQ-ASyMTRe, Zhang & Parker, T-RO 2013), Section IV-A:
+Paper (IQ-ASyMTRe, Zhang & Parker, IEEE Transactions on Robotics; CITATION.cff), Section IV-A:
 
 * Definition 4.1 -- an *information type* is a pair (F, N): a label with a semantic meaning
   and the number of referents (:class:`InformationType`, registry :class:`InformationTypes`).
