@@ -247,11 +247,19 @@ class ChannelHub:
             self._set_period(self.tick_s if busy else self.idle_tick_s)
 
     def _on_bundle(self, data: bytes) -> None:
+        self._drain(data, self.bundle_subscription, self._accept_bundle)
+
+    def _on_batch(self, data: bytes) -> None:
+        self._drain(data, self.batch_subscription, self._accept)
+
+    def _drain(self, data: bytes | None, subscription, accept) -> None:
+        """Take what ``subscription`` holds for at most ``drain_slice_s``, then hand the touched
+        channels their negotiation messages and publish what they answered at once."""
         end = time.perf_counter() + self.drain_slice_s
         touched: dict[str, AgentChannel] = {}
         while data is not None:
-            self._accept_bundle(data, touched)
-            data = self._take_queued(self.bundle_subscription) if time.perf_counter() < end else None
+            accept(data, touched)
+            data = self._take_queued(subscription) if time.perf_counter() < end else None
         for channel in touched.values():
             channel.deliver_urgent()
         self._send_bundle()
@@ -287,16 +295,6 @@ class ChannelHub:
             self.batches_received += 1
             touched[channel.robot] = channel
             channel.accept_fields(fields)
-
-    def _on_batch(self, data: bytes) -> None:
-        end = time.perf_counter() + self.drain_slice_s
-        touched: dict[str, AgentChannel] = {}
-        while data is not None:
-            self._accept(data, touched)
-            data = self._take_queued(self.batch_subscription) if time.perf_counter() < end else None
-        for channel in touched.values():
-            channel.deliver_urgent()
-        self._send_bundle()
 
     def _accept(self, data: bytes, touched: dict) -> None:
         addresses = peek_addresses(data)
