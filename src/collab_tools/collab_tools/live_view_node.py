@@ -8,6 +8,7 @@ publisher is: sensor topics), latched where every publisher is. The behaviour li
 :mod:`collab_tools.core.live_view`. Connect: Foxglove app -> Open connection -> ws://127.0.0.1:8765.
 """
 
+import logging
 import sys
 
 import foxglove
@@ -19,6 +20,7 @@ from . import qos
 from .bag_recorder_node import subscription_qos
 from .core.live_view import (LIVE_VIEW_SETTINGS, MESSAGE_ENCODING, SCHEMA_ENCODING, LiveChannels, SchemaBook,
                              TopicSelection, connect_hint)
+from .input_guard import InputGuard
 from .node_support import ConfigurationError, run
 from .parameters import NodeParameters
 from .ros_interfaces import import_interface
@@ -26,6 +28,8 @@ from .topic_discovery import DiscoveryTimer, topic_names_problem
 
 #: Wall seconds between the simulated times sent to the app.
 TIME_PERIOD = 0.2
+#: What the SDK's reports about clients are logged as arriving on.
+WEBSOCKET = 'websocket'
 
 
 class _Listener:
@@ -41,6 +45,19 @@ class _Listener:
     def on_unsubscribe(self, client, channel) -> None:
         self.channels.client_unsubscribed(client.id, channel.id)
         self.wake()
+
+
+class _ClientErrors(logging.Handler):
+    """The SDK's warnings and errors (a client's invalid frames, a subscription to an unknown channel; its
+    own thread) through the node's input guard: the first of each kind logged, the rest counted, so a
+    client sending garbage cannot flood the log."""
+
+    def __init__(self, inputs: InputGuard):
+        super().__init__(logging.WARNING)
+        self.inputs = inputs
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.inputs.reject(WEBSOCKET, ValueError(record.getMessage()))
 
 
 class LiveView(Node):
@@ -59,6 +76,9 @@ class LiveView(Node):
         self.sim_time = self.get_parameter('use_sim_time').value
         self.wake = self.create_guard_condition(self._apply_client_changes)
         self.foxglove_context = foxglove.Context()
+        sdk_log = logging.getLogger('foxglove')  # the SDK logs through Python's logging (lastResort otherwise)
+        sdk_log.addHandler(_ClientErrors(InputGuard.of(self)))
+        sdk_log.propagate = False
         try:
             self.server = foxglove.start_server(
                 name=values['server_name'], host=values['host'], port=values['port'], context=self.foxglove_context,

@@ -60,7 +60,8 @@ def coalition_markers(statuses: dict, positions: dict[str, tuple[float, float]],
         colour = colour_of.get(cid, palette(index))
         specs.append(MarkerSpec('helps', index, 'arrow', frame, scale=(0.03, 0.08, 0.1), color=colour,
                                 points=((x0, y0, LINE_Z), (x1, y1, LINE_Z))))
-        specs.append(MarkerSpec('uses', index, 'text', frame, position=((x0 + x1) / 2, (y0 + y1) / 2, LINE_Z + 0.1),
+        # halves first: the middle of two finite positions is finite (1e308 + 1e308 is not)
+        specs.append(MarkerSpec('uses', index, 'text', frame, position=(x0 / 2 + x1 / 2, y0 / 2 + y1 / 2, LINE_Z + 0.1),
                                 scale=(0, 0, 0.1), color=colour, text=', '.join(uses) or cid))
     for index, (robot, status) in enumerate(sorted(statuses.items())):
         if robot not in positions:

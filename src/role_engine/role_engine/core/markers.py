@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from collab_tools.core.marker_specs import MarkerInput, MarkerSpec, palette, rgba
+from collab_tools.core.marker_specs import MarkerInput, MarkerSpec, finite, palette, rgba
 
 from .emap import EMap, build_emap
 from .environment import Environment, RobotType
@@ -153,6 +153,8 @@ class RoleMarkers:
         self._build_emaps()
 
     def on_team(self, msg, topic: str = '') -> None:
+        for member in msg.members:  # refuse a robot type no E-Map can be built for before keeping it
+            RobotType(str(member.robot_type or 'robot'), float(member.radius))
         self.colours = {str(m.name): rgba(m.color) for m in msg.members}
         self.team = msg
         self._build_emaps()
@@ -163,6 +165,8 @@ class RoleMarkers:
 
     def on_assignment(self, msg, topic: str = '') -> None:
         _check_lengths(msg, ('robots', 'role_ids', 'goal_x', 'goal_y'), 'roles/assignment')
+        if not finite(*msg.goal_x, *msg.goal_y):  # kept, it would stop every later picture
+            raise ValueError('roles/assignment.goal_x/goal_y: not finite')
         previous, self.assignment = self.assignment, msg
         new_session = previous is not None and _session(previous) != _session(msg)
         if new_session or int(msg.round) > max((int(r.round) for r in self.roles.values()), default=0):
@@ -172,6 +176,8 @@ class RoleMarkers:
 
     def on_process_role(self, msg, topic: str = '') -> None:
         role_state_at(msg, float(msg.start_time))  # refuse what cannot be drawn before keeping it
+        if not finite(*msg.x, *msg.y):
+            raise ValueError(f'process role of {msg.robot}.x/y: not finite')
         if self.assignment is not None and _session(msg) != _session(self.assignment):
             return  # a role of an engine session that is over (or not assigned yet)
         have = self.roles.get(str(msg.robot))
