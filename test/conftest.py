@@ -16,3 +16,13 @@ CONFIG_DIR = WORKSPACE / 'config'
 @pytest.fixture
 def config_dir() -> Path:
     return CONFIG_DIR
+
+
+@pytest.fixture(autouse=True)
+def _no_live_view_leaks(monkeypatch):
+    """``--live`` turns the live view on for the rest of the process (orchestration.live.enable sets
+    COLLAB_LIVE_VIEW, as a CLI run should); a test that parses ``--live`` in-process must not make
+    every later test's sessions start a live view (CI: a secured session then asked for its enclave)."""
+    from collab_tools.orchestration.live import ENVIRONMENT
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    yield

@@ -146,6 +146,11 @@ class BagRecorder(Node):
                                 f'{EXIT_UNRECORDED} (the run fails)')
 
     def _record(self, topic: str, type_name: str, publishers) -> None:
+        # The graph's topic list can lag its endpoint list: name the second type when a publisher has it.
+        types = sorted({info.topic_type for info in publishers} | {type_name})
+        if len(types) > 1:
+            self._fail(topic, f'it carries several types {types}')
+            return
         offered = [info.qos_profile for info in publishers]
         # The hash the publishers' type support reports, as rosbag2 stores it ('INVALID' when unknown).
         hashes = {str(info.topic_type_hash) for info in publishers} - {'INVALID'}
