@@ -98,16 +98,18 @@ class _Candidates:
         known = len(previous)
         if len(offers) < known or not all(map(operator.is_, offers[:known], previous)):
             return None
-        added = offers[known:]
-        if not cheapest_offers:
-            fresh = [(offer.instance, offer) for offer in added]
-            following = _Candidates(self.label, self.entries + fresh)
-            following._index = self._indexed_with(fresh)
-            return following
-        following = _Candidates(self.label, list(self.entries), dict(self._positions or {}))
+        positions = None if self._positions is None else dict(self._positions)
+        following = _Candidates(self.label, list(self.entries), positions)
+        # Shallow copies: the index's lists are replaced, never changed, so these stay as they are.
         following._index = None if self._index is None else {position: dict(table) for position, table in
                                                              self._index.items()}
-        following._take(added)
+        if cheapest_offers:
+            following._take(offers[known:])
+        else:
+            for offer in offers[known:]:
+                following.entries.append((offer.instance, offer))
+                following._index_add(following.entries[-1])
+            following.has_offers = following.has_offers or known < len(offers)
         return following
 
     def _take(self, offers: Iterable[InformationOffer]) -> None:
@@ -126,19 +128,6 @@ class _Candidates:
                 old, entries[place] = entries[place], (offer.instance, offer)
                 self._index_replace(old, entries[place])
         self.has_offers = self.has_offers or bool(entries)
-
-    def _indexed_with(self, fresh: list) -> dict[int, dict[Entity, list]] | None:
-        """This index with ``fresh`` candidates appended (new lists where they change)."""
-        if self._index is None:
-            return None
-        index = {}
-        for position, table in self._index.items():
-            table = dict(table)
-            for candidate in fresh:
-                entity = candidate[0].referents[position]
-                table[entity] = table.get(entity, []) + [candidate]
-            index[position] = table
-        return index
 
     def _index_add(self, candidate) -> None:
         if self._index is not None:
