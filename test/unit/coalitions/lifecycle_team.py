@@ -148,12 +148,25 @@ class Team:
                 else:
                     sensing.report(sensor, self.now, (), {'min_range': 3.0})
 
+    def accepts(self, message) -> bool:
+        """Whether ``message`` reaches its receiver (every one here; a subclass may drop some)."""
+        return True
+
+    def running(self) -> dict:
+        """The life cycles that reason, tick and stream this step (all of them here)."""
+        return self.lives
+
+    def after_step(self, now, running) -> None:
+        """What a subclass does at the end of a step (nothing here)."""
+
     def deliver(self, limit=100000):
         count = 0
         while self.queue:
             count += 1
             assert count < limit, 'the channel did not go quiet'
             message = self.queue.popleft()
+            if not self.accepts(message):
+                continue
             channel = self.channels[message.receiver]
             received = channel.core.receive(message, self.now)
             self.queue.extend(received.replies)
@@ -165,19 +178,21 @@ class Team:
         self.now = now
         self.observe()
         self.deliver()
-        for life in self.lives.values():
+        running = self.running()
+        for life in running.values():
             for _ in range(1000):
                 more = life.reasoning_step(now)
                 self.deliver()
                 if not more:
                     break
-        for life in self.lives.values():
+        for life in running.values():
             life.on_tick(now)
             self.deliver()
         if stream:
-            for life in self.lives.values():
+            for life in running.values():
                 life.on_stream_timer(now)
             self.deliver()
+        self.after_step(now, running)
 
     def run(self, start, end, dt=0.1, until=None):
         now = start

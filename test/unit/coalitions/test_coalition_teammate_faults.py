@@ -130,41 +130,18 @@ class LiveTeam(Team):
             self.lives[receiver].on_teammate_lost(sender, self.now, 'restarted', restarted=True)
         return heard != STALE
 
-    def deliver(self, limit=100000):
-        count = 0
-        while self.queue:
-            count += 1
-            assert count < limit, 'the channel did not go quiet'
-            message = self.queue.popleft()
-            if message.receiver in self.down or message.sender in self.down:
-                continue  # a dead robot neither receives nor sends
-            if not self._heard(message.receiver, message.sender):
-                continue
-            received = self.channels[message.receiver].core.receive(message, self.now)
-            self.queue.extend(received.replies)
-            if received.deliver is not None:
-                self.lives[message.receiver].on_message(received.deliver, received, self.now)
-        return count
+    def accepts(self, message):
+        # A dead robot neither receives nor sends.
+        if message.receiver in self.down or message.sender in self.down:
+            return False
+        return self._heard(message.receiver, message.sender)
 
-    def step(self, now, stream=True):
-        self.now = now
-        self.observe()
-        self.deliver()
-        alive = {robot: life for robot, life in self.lives.items() if robot not in self.down}
-        for life in alive.values():
-            for _ in range(1000):
-                more = life.reasoning_step(now)
-                self.deliver()
-                if not more:
-                    break
-        for life in alive.values():
-            life.on_tick(now)
-            self.deliver()
-        for life in alive.values():
-            life.on_stream_timer(now)
-        self.deliver()
+    def running(self):
+        return {robot: life for robot, life in self.lives.items() if robot not in self.down}
+
+    def after_step(self, now, running):
         if self.alive_checks:
-            for robot, life in alive.items():
+            for robot, life in running.items():
                 self._follow(robot, life, now)
 
     def _follow(self, robot, life, now):
