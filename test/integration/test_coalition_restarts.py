@@ -85,6 +85,22 @@ def assert_within_bound(recovered, undisturbed, restarted, what):
     assert recovered <= bound, f'{what}: {recovered:.1f} s > 2 x {undisturbed:.1f} + {restarted:.1f} s'
 
 
+def restart_helper_and_reform(session, process, helper, leader):
+    """Kill ``process`` (the helper's, committed to ``leader``'s coalition), restart it at once and wait
+    for the leader's next coalition: (restarted process, s to the helper's new session, the leader's
+    status, s to it), both from the kill."""
+    killed = time.monotonic()
+    kill(process)
+    new = restart(session, process)
+    restarted_status(session, HELPER, helper.session)
+    restarted = time.monotonic() - killed
+    again = status(session, LEADER, lambda m: m.coalition_id not in ('', leader.coalition_id)
+                   and m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
+    recovered = time.monotonic() - killed
+    assert again.state == AgentStatus.COMMITTED and tuple(again.members) == (LEADER, HELPER), again.detail
+    return new, restarted, again, recovered
+
+
 def log(process) -> str:
     return process.log_path.read_text()
 
@@ -113,15 +129,7 @@ def test_a_leader_killed_after_commit_is_released_and_forms_again_when_restarted
 
 def test_a_helper_killed_after_committing_is_taken_back_when_restarted(session, files, config_dir):
     agents, leader, helper, undisturbed = committed_team(session, files, config_dir)
-    killed = time.monotonic()
-    kill(agents[HELPER])
-    new = restart(session, agents[HELPER])
-    restarted_status(session, HELPER, helper.session)
-    restarted = time.monotonic() - killed
-    again = status(session, LEADER, lambda m: m.coalition_id not in ('', leader.coalition_id)
-                   and m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
-    recovered = time.monotonic() - killed
-    assert again.state == AgentStatus.COMMITTED and tuple(again.members) == (LEADER, HELPER), again.detail
+    new, restarted, again, recovered = restart_helper_and_reform(session, agents[HELPER], helper, leader)
     helper_again = status(session, HELPER, lambda m: m.session != helper.session
                           and m.coalition_id == again.coalition_id)
     assert helper_again.state == AgentStatus.COMMITTED
@@ -172,15 +180,7 @@ def test_an_agent_host_killed_after_commit_is_taken_back_when_restarted(session,
     assert leader.state == AgentStatus.COMMITTED and tuple(leader.members) == (LEADER, HELPER), leader.detail
     helper = status(session, HELPER, lambda m: m.state == AgentStatus.COMMITTED)
     undisturbed = time.monotonic() - start
-    killed = time.monotonic()
-    kill(host)
-    new = restart(session, host)
-    restarted_status(session, HELPER, helper.session)
-    restarted = time.monotonic() - killed
-    again = status(session, LEADER, lambda m: m.coalition_id not in ('', leader.coalition_id)
-                   and m.state in (AgentStatus.COMMITTED, AgentStatus.FAILED))
-    recovered = time.monotonic() - killed
-    assert again.state == AgentStatus.COMMITTED and tuple(again.members) == (LEADER, HELPER), again.detail
+    new, restarted, again, recovered = restart_helper_and_reform(session, host, helper, leader)
     assert status(session, HELPER, lambda m: m.coalition_id == again.coalition_id).session != helper.session
     assert_within_bound(recovered, undisturbed, restarted, 'agent host killed after commit')
     assert new.poll() is None and agents[LEADER].poll() is None
