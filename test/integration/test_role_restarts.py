@@ -103,6 +103,10 @@ class TeamWatch:
             rounds = [(a.session, a.round, a.status, list(a.robots)) for a in self.assignments]
         raise AssertionError(f'timed out after {timeout:.0f} s waiting for {what}; assignments {rounds}')
 
+    def first_assignment(self):
+        return self.wait(lambda: next((a for a in self.assignments if a.status == 'assigned'), None), 90,
+                         'the first assignment')
+
     def complete(self, assignment) -> bool:
         """Every robot of an assigned round reported its arrival (call with the lock held)."""
         return assignment.status == 'assigned' and bool(assignment.robots) and all(
@@ -149,8 +153,7 @@ def assert_camera_kept_flowing(watch, killed_at, others):
 def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tmp_path):
     settings = start_team(session, tmp_path)
     watch = TeamWatch(session.observer.node)
-    first = watch.wait(lambda: next((a for a in watch.assignments if a.status == 'assigned'), None), 90,
-                       'the first assignment')
+    first = watch.first_assignment()
     assert sorted(first.robots) == sorted(ROBOTS)
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
@@ -190,8 +193,7 @@ def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tm
 def test_a_player_restarted_in_time_takes_its_role_from_the_latched_assignment(session, tmp_path):
     settings = start_team(session, tmp_path, silence_timeout=30.0)
     watch = TeamWatch(session.observer.node)
-    first = watch.wait(lambda: next((a for a in watch.assignments if a.status == 'assigned'), None), 90,
-                       'the first assignment')
+    first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
     killed_at = kill(session, 'burger_2/role_player')
@@ -215,8 +217,7 @@ def test_a_player_restarted_in_time_takes_its_role_from_the_latched_assignment(s
 def test_a_restarted_engine_starts_a_new_session_the_players_follow(session, tmp_path):
     settings = start_team(session, tmp_path)
     watch = TeamWatch(session.observer.node)
-    first = watch.wait(lambda: next((a for a in watch.assignments if a.status == 'assigned'), None), 90,
-                       'the first assignment')
+    first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.version >= 2, timeout=60)
     killed_at = kill(session, 'role_engine')
@@ -246,8 +247,7 @@ def test_a_restarted_robot_tracker_feeds_the_players_again(session, tmp_path):
     formation of the first round completes."""
     start_team(session, tmp_path)
     watch = TeamWatch(session.observer.node)
-    first = watch.wait(lambda: next((a for a in watch.assignments if a.status == 'assigned'), None), 90,
-                       'the first assignment')
+    first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.version >= 2, timeout=60)
     killed_at = kill(session, 'robot_tracker')
