@@ -77,9 +77,12 @@ def bodies(**positions):
     return msg
 
 
-def markers_with(session, topic, ns, text_prefix, timeout=15.0):
+def markers_with(session, topic, ns, text_prefix, timeout=15.0, also=()):
+    """The first MarkerArray with a ``ns`` marker whose text starts with ``text_prefix`` and a marker
+    of every namespace in ``also`` (the inputs arrive one by one: an array may hold some only)."""
     def found(array):
-        return any(m.ns == ns and m.text.startswith(text_prefix) for m in array.markers)
+        return any(m.ns == ns and m.text.startswith(text_prefix) for m in array.markers) and \
+            all(any(m.ns == other for m in array.markers) for other in also)
     return session.wait_for_message(topic, MARKERS, latched=True, timeout=timeout, predicate=found)
 
 
@@ -144,7 +147,7 @@ def test_view_nodes_survive_fuzzing_and_still_draw_and_forward(session, port):
                                                                          color=[1.0, 0.0, 0.0])])], qos=LATCHED)
     publish_all(ros_node, RoleAssignment, '/roles/assignment', [assignment()], qos=LATCHED, pause=LATCHED_PAUSE)
     publish_all(ros_node, ProcessRole, '/roles/channel', [process_role()])
-    roles = markers_with(session, '/markers/roles', 'roles', f'{ROBOT}: diamond_0')
+    roles = markers_with(session, '/markers/roles', 'roles', f'{ROBOT}: diamond_0', also=('goals', 'now'))
     goal = next(m for m in roles.markers if m.ns == 'goals')
     assert (goal.pose.position.x, goal.pose.position.y) == (1.0, 2.0)
     assert (goal.color.r, goal.color.g, goal.color.b) == (1.0, 0.0, 0.0)
