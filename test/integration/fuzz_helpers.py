@@ -3,6 +3,7 @@ node dropped, counted and logged each kind of rejection once (collab_tools.input
 
 import re
 import time
+from pathlib import Path
 
 from builtin_interfaces.msg import Time
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -58,6 +59,25 @@ def rejections(log_text: str, topic: str) -> dict[str, int]:
     for kind in pattern.findall(log_text):
         kinds[kind] = kinds.get(kind, 0) + 1
     return kinds
+
+
+def republish_until_rejected(publisher, messages, topic: str, expected: dict, timeout: float = 30.0,
+                             pause: float = 0.2):
+    """Publish ``messages`` again every few seconds until each log in ``expected`` (path -> kinds) shows each
+    kind rejected on ``topic``. A node busy for seconds keeps only its subscription's newest messages (depth 10
+    on a topic its peers also publish on), so one pass need not reach it; a repeat is counted, not logged again.
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        missing = {str(path): [k for k in kinds if k not in rejections(Path(path).read_text(), topic)]
+                   for path, kinds in expected.items()}
+        missing = {path: kinds for path, kinds in missing.items() if kinds}
+        if not missing or time.monotonic() > deadline:
+            return missing
+        time.sleep(2.0)
+        for msg in messages:
+            publisher.publish(msg)
+            time.sleep(pause)
 
 
 def assert_rejected_once_per_kind(log_text: str, topic: str, expected_kinds, at_least: bool = True):

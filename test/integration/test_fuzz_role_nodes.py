@@ -28,7 +28,8 @@ from sensor_msgs.msg import Image
 
 from collab_tools.orchestration.node_process import NodeSpec
 from fuzz_helpers import BAD_STAMPS, HUGE, LATCHED, NEGATIVE, assert_rejected_once_per_kind, bad_clock, \
-    clock_rejections_ok, flood, publish_all, rejections
+    clock_rejections_ok, flood, publish_all, rejections, \
+    republish_until_rejected
 from role_engine.core.formation_task import load_formation_task
 from role_helpers import engine_spec, player_process, player_spec, tracker_spec
 from test_role_nodes import ROBOTS, assert_formation_completed, watch_ground_truth_and_arrivals
@@ -92,6 +93,13 @@ def out_of_session_roles(current):
     ]
 
 
+def player_channel_kinds(robot):
+    """What a player rejects on the channel; it ignores roles naming its own robot (burger_1's forged
+    arrival, pioneer_2's other session)."""
+    return (['unknown robot'] + (['forged sender'] if robot != 'burger_1' else [])
+            + (['other session'] if robot != 'pioneer_2' else []))
+
+
 def out_of_session_assignments(current):
     """Assignments a player must refuse: another sender, round 2^32-1 in the engine's session and as a new
     session's first round, no session. Each would stop the players if it were applied (status aborted)."""
@@ -149,9 +157,11 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
     # The channel: engine + four players hear it.
     # (a player busy re-planning keeps the newest 10 messages: spaced, each kind reaches every node)
     epoch = assignment.session
-    channel = publish_all(ros_node, ProcessRole, '/roles/channel',
-                          malformed_roles(round_, epoch) + out_of_session_roles(assignment), subscribers=5,
-                          pause=0.2)
+    fuzz_roles = malformed_roles(round_, epoch) + out_of_session_roles(assignment)
+    channel = publish_all(ros_node, ProcessRole, '/roles/channel', fuzz_roles, subscribers=5, pause=0.2)
+    republish_until_rejected(channel, fuzz_roles, '/roles/channel', {
+        engine.log_path: ['unknown robot', 'forged sender', 'other session'],
+        **{player_process(session, robot).log_path: player_channel_kinds(robot) for robot in ROBOTS}})
     time.sleep(1.0)
     flood(channel, role('pioneer_1', round_, session=epoch, x=[math.nan] * 3), 200, seconds=1.0)
     # The assignment (players only) and the team (players and tracker; the tracker converts it).
@@ -194,10 +204,7 @@ def test_role_nodes_survive_fuzzing_and_complete_the_formation(session, ros_node
     clock_rejections_ok(tracker_log)
     for robot in ROBOTS:
         log = player_process(session, robot).log_path.read_text()
-        # (a player ignores roles naming its own robot: burger_1's forged arrival, pioneer_2's other session)
-        assert_rejected_once_per_kind(log, '/roles/channel', ['unknown robot']
-                                      + (['forged sender'] if robot != 'burger_1' else [])
-                                      + (['other session'] if robot != 'pioneer_2' else []))
+        assert_rejected_once_per_kind(log, '/roles/channel', player_channel_kinds(robot))
         kinds = rejections(log, '/roles/assignment')
         assert 'header.stamp: negative' in kinds and any(k.startswith('assignment: ') for k in kinds), kinds
         assert_rejected_once_per_kind(log, '/roles/assignment', ['other sender', 'round jump', 'no session'])
