@@ -54,6 +54,7 @@ from role_interfaces.msg import PlayerAnnouncement, ProcessRole, RoleAssignment,
 
 from collab_tools import qos
 from collab_tools.core.input_checks import MalformedInput
+from collab_tools.core.session_following import new_session
 from collab_tools.input_guard import InputGuard
 from collab_tools.names import TeamNode
 from collab_tools.node_support import run
@@ -65,7 +66,7 @@ from .core.engine import CameraView, RoleEngine as EngineBehaviour, RoundOutcome
 from .core import gp_compiled
 from .core.errors import RoleEngineError
 from .core.grid import GridFrame
-from .core.sessions import check_announcement_sender, engine_channel_verdict, new_session
+from .core.sessions import check_announcement_sender, engine_channel_verdict
 from .core.node_settings import ENGINE_SETTINGS, engine_settings_file, engine_tuning_schema, tuned
 from .core.top_view import environment_from_top_view
 from .core.tracking import ColorTracker, TrackedTarget

@@ -36,6 +36,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.time import Time
 from collab_tools.core.input_checks import MalformedInput, error_kind
+from collab_tools.core.session_following import Followed, new_session
 from collab_tools.input_guard import InputGuard
 from collab_tools.names import RobotNode
 from collab_tools.node_support import run
@@ -49,7 +50,7 @@ from .core.follower_behaviour import Follower, FollowerChoice
 from .core.follower_rounds import FollowerPhase, FollowerRounds, HeardGuidance
 from .core.perception_check import PerceptionCheck
 from .core.rearrangement import FOLLOWER, LEADER, RearrangementModel
-from .core.sessions import FollowedLeader, Followed, new_session
+from .core.sessions import FollowedLeader
 from .core.settings import FOLLOWER_SETTINGS, FollowerExecutorSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, action_from_msg, counts_from_msg, move_msg, \
     pick_and_place_goal

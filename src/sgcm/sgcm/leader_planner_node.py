@@ -43,6 +43,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.time import Time
+from collab_tools.core.session_following import new_session
 from collab_tools.names import RobotNode, join
 from collab_tools.input_guard import InputGuard
 from collab_tools.node_support import EXIT_TASK_FAILED, run
@@ -57,7 +58,7 @@ from .core.leader_round import LeaderRound, LeaderTurn, TaskEnd
 from .core.leader_rounds import LeaderPhase, LeaderRounds
 from .core.perception_check import PerceptionCheck
 from .core.rearrangement import EMPTY, FOLLOWER, LEADER, RearrangementModel
-from .core.sessions import FollowerReports, new_session
+from .core.sessions import FollowerReports
 from .core.settings import LEADER_SETTINGS, LeaderSettings
 from .ros_conversions import FOLLOWER_REPORT, GUIDANCE, grid_state_msg, move_msg, pick_and_place_goal
 

@@ -3,10 +3,11 @@ engine and the engine re-including a player that is back (core.player, core.engi
 import pytest
 
 from collab_tools.core.input_checks import MalformedInput, error_kind
+from collab_tools.core.session_following import new_session
 from role_engine.core.engine import MAX_REJOINS, EnginePhase
 from role_engine.core.player import PlayerState, RoundAssignment
 from role_engine.core.sessions import (MAX_ROUND_JUMP, SessionFollower, Verdict, check_announcement_sender,
-                                       engine_channel_verdict, new_session, node_of_robot)
+                                       engine_channel_verdict, node_of_robot)
 
 from test_roles_player_engine import a_role, engine, player, view  # noqa: F401 (player: a fixture)
 

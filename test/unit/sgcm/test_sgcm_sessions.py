@@ -7,12 +7,13 @@ from types import SimpleNamespace
 import pytest
 
 from collab_tools.core.input_checks import MalformedInput
+from collab_tools.core.session_following import new_session
 from sgcm.core.arm_goal import GoalWatch
 from sgcm.core.follower_behaviour import Follower, FollowerSettings
 from sgcm.core.follower_rounds import FollowerPhase, FollowerRounds, HeardGuidance
 from sgcm.core.rearrangement import EMPTY, FOLLOWER
 from sgcm.core.round_log import rounds_in_order
-from sgcm.core.sessions import FollowedLeader, FollowerReports, new_session
+from sgcm.core.sessions import FollowedLeader, FollowerReports
 
 LEADER = '/leader_arm/leader_planner'
 OLD, NEW, FORGED = 0x1111, 0x2222, 0x3333

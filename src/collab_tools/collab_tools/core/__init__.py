@@ -25,6 +25,7 @@ trees are read and written with the modules below, by nodes, experiments and rep
 | TF trees (lookups through a chain of stamped transforms) | :mod:`.tf_tree` |
 | scripted drive plans (the demo's driver) | :mod:`.drive_plan` |
 | messages as input: malformed-input kinds, stamp checks, the /clock filter | :mod:`.input_checks` |
+| sessions: a node's id for one life (`new_session`), following one sender's current session (SGCM follower, role player) | :mod:`.session_following` |
 | the live view (Foxglove): topic selection, channels, ros2msg schemas, settings | :mod:`.live_view` |
 | markers as plain data (the subsystems' marker sources build them) | :mod:`.marker_specs` |
 | SROS2 access policies: sros2's policy format, DDS permissions and governance documents | :mod:`.sros2_policy` |

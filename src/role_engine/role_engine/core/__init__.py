@@ -81,9 +81,9 @@ Sec. V-B, Figs. 15-16 (diamond, real robots)   role_engine.experiments.formation
                                                in simulation, measured from the bag)
 E-Map, roles and process roles watched live    markers (RoleMarkers)
 (ours)
-Sessions and senders of assignments and        sessions (SessionFollower, engine_channel_verdict);
-process roles, restarted nodes rejoining       engine (RoleEngine.announced)
-(ours)
+Sessions and senders of assignments and        sessions (SessionFollower: the player's rules on
+process roles, restarted nodes rejoining       collab_tools.core.session_following;
+(ours)                                         engine_channel_verdict); engine (RoleEngine.announced)
 =============================================  ==================================================
 
 Supporting modules (ours): ``grid`` (cell <-> world), ``environment`` (also the map files: Nav2

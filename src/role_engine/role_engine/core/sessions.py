@@ -1,24 +1,28 @@
 """Sessions and senders on the role topics (issue 16 item 4): which messages a role node follows.
 
-Every role engine picks a *session* id when it starts (:func:`new_session`, a random non-zero
-64-bit number) and puts its node name (the *sender*) and the session into every assignment and
-initial process role; a player puts its own node name and the engine session it plays into every
-process role it publishes. Round counters count within a session: a restarted engine starts a
-new session at round 1.
+Every role engine picks a *session* id when it starts
+(:func:`collab_tools.core.session_following.new_session`) and puts its node name (the *sender*)
+and the session into every assignment and initial process role; a player puts its own node name
+and the engine session it plays into every process role it publishes. Round counters count within
+a session: a restarted engine starts a new session at round 1.
 
-A player follows the current session of its engine (:class:`SessionFollower`):
+A player follows the current session of its engine (:class:`SessionFollower`) with the shared
+rules of :mod:`collab_tools.core.session_following`, chosen for assignments:
 
-* an assignment whose sender is not its engine is ignored (``other sender``);
-* a later round of the current session is applied; an earlier or equal one is not (it is old);
+* an assignment whose sender is not its engine is ignored (``other sender``), one without a
+  session too (``no session``);
+* a later round of the current session is applied; an earlier or equal one is not: it is old,
+  dropped quietly as normal traffic (unlike the SGCM guidance, where a repeat is refused);
 * an assignment of a session the player has left is ignored (``old session``); one of a session
-  it has not seen is a restarted engine: it is applied (the new session replaces the current one,
-  which is left for good), so a restarted engine's round 1 is not lost behind the old round 5;
-* a round more than :data:`MAX_ROUND_JUMP` ahead of the current one (or a new session's first
-  round above it) is refused (``round jump``): one forged round 2^32-1 cannot make every later
-  round look old. A player may miss rounds (the latched assignment keeps only the newest, a
-  restarted player sees the current round first), so the next round cannot be required to be
-  +1; an engine opens a round per renegotiation (each excluding or re-including a robot), a few
-  per task, so a jump of 64 is far beyond a real one and far below the counter's range.
+  it has not seen is a restarted engine: it is applied and replaces the current one *at once*,
+  which is left for good, so a restarted engine's round 1 is not lost behind the old round 5;
+* a round more than :data:`MAX_ROUND_JUMP` ahead of the current one, or a new session's first
+  round outside 1 .. :data:`MAX_ROUND_JUMP` (a player without a session too), is refused
+  (``round jump``): one forged round 2^32-1 cannot make every later round look old. A player may
+  miss rounds (the latched assignment keeps only the newest, a restarted player sees the current
+  round first), so the next round cannot be required to be +1; an engine opens a round per
+  renegotiation (each excluding or re-including a robot), a few per task, so a jump of 64 is far
+  beyond a real one and far below the counter's range.
 
 Process roles on the channel (:meth:`SessionFollower.channel_verdict` for a player,
 :func:`engine_channel_verdict` for the engine) count when they are of the current session
@@ -38,23 +42,17 @@ DDS wheels have no security plugins; README "Security").
 """
 from __future__ import annotations
 
-import secrets
-from collections import deque
 from enum import Enum
 
 from collab_tools.core.input_checks import MalformedInput
+from collab_tools.core.session_following import FollowingRules, NotFollowed, Refusal, SessionFollowing
 
 #: Largest accepted step of the round counter within a session (and first round of a new one).
 MAX_ROUND_JUMP = 64
-#: Sessions a follower remembers having left (older ones are long gone from any latched topic).
-LEFT_SESSIONS = 16
+#: A new engine session ends the previous one at once; a player never joins a session past its first rounds.
+ASSIGNMENT_RULES = FollowingRules(MAX_ROUND_JUMP, ends_others_after=1, joins_session_under_way=False)
 #: Characters of a sender or robot name an error message echoes (forged names can be long).
 NAME_ECHO = 60
-
-
-def new_session() -> int:
-    """A random non-zero session id (uint64): two starts of an engine never share one in practice."""
-    return secrets.randbelow(2**64 - 1) + 1
 
 
 def _name(value: str) -> str:
@@ -72,43 +70,48 @@ class Verdict(Enum):
     OLD = 'old'              # an earlier or equal round of the current session: drop quietly
 
 
-class SessionFollower:
+class SessionFollower(SessionFollowing):
     """A player's view of its engine's sessions (module docstring). ``engine``: the engine node's full name."""
 
     def __init__(self, engine: str):
+        super().__init__(engine, ASSIGNMENT_RULES)
         self.engine = engine
-        self.session = 0              # 0: no session yet
-        self.round = 0
-        self.left: deque[int] = deque(maxlen=LEFT_SESSIONS)
+
+    @property
+    def round(self) -> int:
+        """The current session's last round applied (0: none)."""
+        return self.last_round
 
     def check_assignment(self, sender: str, session: int, round_: int) -> Verdict:
         """What to do with an assignment (nothing changes until :meth:`follow`); MalformedInput when refused."""
-        if sender != self.engine:
-            raise MalformedInput(f'ignored an assignment from {_name(sender)}: not the role engine {self.engine}',
-                                 kind='other sender')
-        if session == 0:
-            raise MalformedInput('ignored an assignment without a session (session 0)', kind='no session')
-        if session in self.left:
-            raise MalformedInput(f'ignored an assignment (round {round_}) of session {session}, which this player '
-                                 f'has left for session {self.session}', kind='old session')
-        if session == self.session:
-            if round_ <= self.round:
+        try:
+            self.judge(sender, session, round_)
+        except NotFollowed as refused:
+            if refused.reason is Refusal.ALREADY_HEARD:
                 return Verdict.OLD
-            if round_ - self.round > MAX_ROUND_JUMP:
-                raise MalformedInput(f'ignored assignment round {round_}: more than {MAX_ROUND_JUMP} rounds after '
-                                     f'round {self.round} of this session', kind='round jump')
-        elif not 1 <= round_ <= MAX_ROUND_JUMP:
-            raise MalformedInput(f'ignored assignment round {round_} of a new session {session}: a session starts '
-                                 f'at round 1 (at most {MAX_ROUND_JUMP} when rounds were missed)', kind='round jump')
+            raise self._malformed(refused) from None
         return Verdict.APPLY
 
     def follow(self, session: int, round_: int) -> bool:
         """Take an applied assignment's session and round; True when it started a new session."""
-        new = session != self.session
-        if new and self.session:
-            self.left.append(self.session)
-        self.session, self.round = session, round_
-        return new
+        return self.take(session, round_).new_session
+
+    def _malformed(self, refused: NotFollowed) -> MalformedInput:
+        session, round_ = refused.session, refused.round_number
+        if refused.reason is Refusal.OTHER_SENDER:
+            return MalformedInput(f'ignored an assignment from {_name(refused.sender)}: not the role engine '
+                                  f'{self.engine}', kind='other sender')
+        if refused.reason is Refusal.NO_SESSION:
+            return MalformedInput('ignored an assignment without a session (session 0)', kind='no session')
+        if refused.reason is Refusal.ENDED_SESSION:
+            return MalformedInput(f'ignored an assignment (round {round_}) of session {session}, which this player '
+                                  f'has left for session {self.session}', kind='old session')
+        if refused.reason is Refusal.ROUND_JUMP:
+            return MalformedInput(f'ignored assignment round {round_}: more than {MAX_ROUND_JUMP} rounds after '
+                                  f'round {self.round} of this session', kind='round jump')
+        # OUT_OF_ORDER: a new session's first round is not 1 .. MAX_ROUND_JUMP (an assignment never ends a task)
+        return MalformedInput(f'ignored assignment round {round_} of a new session {session}: a session starts '
+                              f'at round 1 (at most {MAX_ROUND_JUMP} when rounds were missed)', kind='round jump')
 
     def channel_verdict(self, sender: str, session: int, robot: str, round_: int) -> bool:
         """Whether a process role on the channel (of another robot than the player's: the node drops its

@@ -78,9 +78,10 @@ frame shows every cube of the legend in         PerceptionCheck: rejected frames
 the grid, or it is not used)                    perception fault)
 The nodes' parameters (ours)                    settings (LEADER_SETTINGS, FOLLOWER_SETTINGS,
                                                 LeaderSettings, FollowerExecutorSettings)
-Who a message is from (ours): sender and       sessions (new_session, FollowedLeader: the
-session of each node, the follower following    follower's rules; FollowerReports: the leader's);
-the current session of his leader               round_log (rounds_in_order: a recording's rounds
+Who a message is from (ours): sender and       sessions (FollowedLeader: the follower's rules
+session of each node, the follower following    on collab_tools.core.session_following;
+the current session of his leader               FollowerReports: the leader's);
+                                                round_log (rounds_in_order: a recording's rounds
                                                 across a restarted leader)
 An arm goal the crashed bridge never answers    arm_goal (GoalWatch: timeout, server loss)
 (ours)

@@ -27,19 +27,15 @@ judged only while watched, so an idle team sends nothing.
 """
 from __future__ import annotations
 
-import secrets
 from dataclasses import dataclass, field
 from typing import Iterable
+
+from collab_tools.core.session_following import new_session
 
 from ..errors import ConfigError
 
 #: what :meth:`PeerLiveness.heard` makes of a batch
 CURRENT, FIRST, RESTARTED, STALE = 'current', 'first', 'restarted', 'stale'
-
-
-def new_session() -> int:
-    """A session id for an agent that starts: random, non-zero, below 2^63."""
-    return secrets.randbits(63) or 1
 
 
 @dataclass(frozen=True)
