@@ -66,6 +66,8 @@ class AgentSetup:
     discovery: Mapping | None = None
     hosts: Mapping | None = None
     process_hosts: tuple[str | None, ...] = ()
+    #: s for every node to appear in the graph (the experiment's ``discovery_timeout``; None: its default)
+    discovery_timeout_s: float | None = None
     #: simulated s per bridge tick (its ``control_period``; None: the bridge's parameter file)
     bridge_control_period: float | None = None
 
@@ -174,6 +176,8 @@ def run_session(run_dir: Path, config_dir: Path, name: str, placements: Sequence
     for field_ in ('discovery', 'hosts'):
         if getattr(setup, field_) is not None:
             experiment[field_] = dict(getattr(setup, field_))
+    if setup.discovery_timeout_s is not None:
+        experiment['discovery_timeout'] = float(setup.discovery_timeout_s)
     if not setup.hosted:
         experiment['until'] = {'exit': agent_label(setup.leaders[0])}
     generated = run_dir / 'experiment.yaml'
