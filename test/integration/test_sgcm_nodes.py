@@ -7,6 +7,7 @@ Only topics connect them: the camera (state estimate), /sgcm/guidance (leader ->
 
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,12 +45,13 @@ def follower_spec(task_file, **parameters) -> NodeSpec:
 
 
 def start_case(session, tmp_path, task_file, config_dir, case_name, follower_params=None, leader_params=None,
-               follower=True, **bridge_params):
+               follower=True, bridge_env=None, **bridge_params):
     task = load_task(task_file)
     case = next(c for c in load_cases(config_dir / 'sgcm' / 'cases.yaml', task) if c.name == case_name)
     scenario = tmp_path / 'scenario.yaml'
     scenario.write_text(yaml.safe_dump(build_scenario(task, case, execution_failures=False)))
-    session.start(bridge_spec(scenario, **{'ground_truth_rate': 5.0, 'start_paused': False, **bridge_params}))
+    spec = bridge_spec(scenario, **{'ground_truth_rate': 5.0, 'start_paused': False, **bridge_params})
+    session.start(replace(spec, env=bridge_env or {}))
     session.start(leader_spec(task_file, **(leader_params or {})))
     if follower:
         session.start(follower_spec(task_file, **(follower_params or {})))

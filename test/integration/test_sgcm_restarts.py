@@ -31,6 +31,21 @@ FOLLOWER = f'{FOLLOWER_NS}/follower_executor'
 UNDISTURBED_S = 20.0
 #: The leader's follower_timeout (simulated s) for a round the restarted follower never heard.
 FOLLOWER_TIMEOUT = 5.0
+#: A Fast DDS participant lease of 4 s (default 20 s) for the bridge a test kills: the others notice a
+#: killed participant only when its lease runs out, so its action server leaves their graph 4 s after
+#: the kill instead of 20 s. Announced every 0.5 s, a live bridge is not dropped under load.
+SHORT_LEASE_PROFILE = '''<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <participant profile_name="short_lease" is_default_profile="true">
+      <rtps><builtin><discovery_config>
+        <leaseDuration><sec>4</sec></leaseDuration>
+        <leaseAnnouncement><nanosec>500000000</nanosec></leaseAnnouncement>
+      </discovery_config></builtin></rtps>
+    </participant>
+  </profiles>
+</dds>
+'''
 
 
 @pytest.fixture
@@ -76,9 +91,9 @@ class Watch:
         return next((g for g in self.guidance if g.task_complete or g.status), None)
 
 
-def start(session, tmp_path, task_file, config_dir, **leader_params):
+def start(session, tmp_path, task_file, config_dir, bridge_env=None, **leader_params):
     watch = Watch(session.observer.node)
-    start_case(session, tmp_path, task_file, config_dir, 'case_3', start_paused=True,
+    start_case(session, tmp_path, task_file, config_dir, 'case_3', start_paused=True, bridge_env=bridge_env,
                leader_params={'arm_server_lost_after': 2.0, **leader_params},
                follower_params={'arm_server_lost_after': 2.0})
     session.wait_for_nodes([LEADER, FOLLOWER], 60.0)
@@ -159,7 +174,9 @@ def test_a_restarted_follower_rejoins(session, tmp_path, task_file, config_dir):
 def test_a_bridge_killed_during_an_arm_goal_is_not_waited_for(session, tmp_path, task_file, config_dir, restart_when):
     """Restarted at once, the new simulation's clock going back gives her goal up; restarted only after she
     gave it up, the action server's absence from the graph (arm_server_lost_after) did."""
-    watch = start(session, tmp_path, task_file, config_dir)
+    lease = tmp_path / 'short_lease.xml'
+    lease.write_text(SHORT_LEASE_PROFILE)
+    watch = start(session, tmp_path, task_file, config_dir, bridge_env={'FASTRTPS_DEFAULT_PROFILES_FILE': str(lease)})
     # The fixed point: her arm is carrying in round 2 (feedback after round 1's guidance).
     wait_until(lambda: len(watch.rounds()) >= 1, 'the leader announced no round 1', session)
     seen = len(watch.feedback)
