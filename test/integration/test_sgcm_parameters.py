@@ -7,13 +7,14 @@ Times are compared in simulated time (message stamps), so a slow machine cannot 
 import time
 
 import pytest
+import rclpy
 import yaml
 from rclpy.time import Time
 from sgcm_interfaces.msg import FollowerReport, Guidance, Move
 
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import RELIABLE
-from bridge_helpers import bridge_spec, set_paused, wait_for_subscriber
+from bridge_helpers import FAST_SIM, bridge_spec, set_paused, wait_for_subscriber
 from parameter_client import check_parameter_contract, get_values, set_one, set_parameters
 from sgcm.core.rearrangement import RearrangementModel
 from sgcm.core.scenario_builder import build_scenario
@@ -42,12 +43,28 @@ def task_file(config_dir):
     return config_dir / 'sgcm' / 'task.yaml'
 
 
+@pytest.fixture
+def silent_follower(session):
+    """The test as a follower that hears the guidance and never reports (a node named as the leader's
+    follower, spun with the session's observer): the leader publishes each round once it has matched,
+    not after waiting ANNOUNCE_WAIT (5 s) for a follower that is not there, and the round still ends by
+    her follower_timeout. Returns the guidance it heard."""
+    node = rclpy.create_node('follower_executor', namespace='/follower_arm', context=session.observer.context,
+                             start_parameter_services=False)
+    heard = []
+    node.create_subscription(Guidance, '/sgcm/guidance', heard.append, RELIABLE)
+    session.observer.executor.add_node(node)
+    yield heard
+    session.observer.executor.remove_node(node)
+    node.destroy_node()
+
+
 def start_bridge(session, tmp_path, task_file, config_dir, case_name='case_8', **parameters):
     task = load_task(task_file)
     case = next(c for c in load_cases(config_dir / 'sgcm' / 'cases.yaml', task) if c.name == case_name)
     scenario = tmp_path / 'scenario.yaml'
     scenario.write_text(yaml.safe_dump(build_scenario(task, case, execution_failures=False)))
-    session.start(bridge_spec(scenario, ground_truth_rate=5.0, **parameters))
+    session.start(bridge_spec(scenario, ground_truth_rate=5.0, **FAST_SIM, **parameters))
     return task, case
 
 
@@ -66,8 +83,8 @@ def wait_for(items, predicate, what, session, timeout=240.0):
         time.sleep(0.1)
 
 
-def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, config_dir):
-    """No follower: the leader's rounds end by its follower_timeout.
+def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, config_dir, silent_follower):
+    """A follower that never reports: the leader's rounds end by its follower_timeout.
 
     Started with a follower_timeout it would wait out for hours of simulated time, horizon and
     round_limit from the task file (2, 20) and a 0.5 s settle; the values set at run time decide
@@ -77,8 +94,7 @@ def test_leader_parameters_are_applied_or_refused(session, tmp_path, task_file, 
     task, _ = start_bridge(session, tmp_path, task_file, config_dir, start_paused=True)
     session.start(leader_spec(task_file, follower_timeout=100000.0))
     session.wait_for_nodes([LEADER], 60.0)
-    guidance = []
-    session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, RELIABLE)
+    guidance = silent_follower
     found = check_parameter_contract(session, LEADER, LEADER_DYNAMIC, refuse_negative=True)
     assert (found['horizon'].integer_range[0].from_value, found['horizon'].integer_range[0].to_value) == (0, 6)
     assert not set_one(session, LEADER, 'horizon', 7).successful
