@@ -21,8 +21,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'schema_agent = coalition_agents.schema_agent_node:main',
-            'schema_agent_host = coalition_agents.agent_host:main',
+            'schema_agent = coalition_agents.entry_points:schema_agent',
+            'schema_agent_host = coalition_agents.entry_points:schema_agent_host',
         ],
     },
 )

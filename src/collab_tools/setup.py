@@ -18,11 +18,11 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'bag_recorder = collab_tools.bag_recorder_node:main',
+            'bag_recorder = collab_tools.entry_points:bag_recorder',
             'bag_reindex = collab_tools.core.bag_repair:main',
-            'live_view = collab_tools.live_view_node:main',
-            'scripted_driver = collab_tools.scripted_driver_node:main',
-            'visualiser = collab_tools.visualiser_node:main',
+            'live_view = collab_tools.entry_points:live_view',
+            'scripted_driver = collab_tools.entry_points:scripted_driver',
+            'visualiser = collab_tools.entry_points:visualiser',
         ],
     },
 )

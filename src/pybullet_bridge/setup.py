@@ -21,7 +21,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'pybullet_bridge = pybullet_bridge.bridge_node:main',
+            'pybullet_bridge = pybullet_bridge.entry_points:pybullet_bridge',
         ],
     },
 )

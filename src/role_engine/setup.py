@@ -21,9 +21,9 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'role_engine = role_engine.role_engine_node:main',
-            'role_player = role_engine.role_player_node:main',
-            'robot_tracker = role_engine.robot_tracker_node:main',
+            'role_engine = role_engine.entry_points:role_engine',
+            'role_player = role_engine.entry_points:role_player',
+            'robot_tracker = role_engine.entry_points:robot_tracker',
         ],
     },
 )

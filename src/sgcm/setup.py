@@ -21,8 +21,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'leader_planner = sgcm.leader_planner_node:main',
-            'follower_executor = sgcm.follower_executor_node:main',
+            'leader_planner = sgcm.entry_points:leader_planner',
+            'follower_executor = sgcm.entry_points:follower_executor',
         ],
     },
 )
