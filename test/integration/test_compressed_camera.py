@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 from sgcm_interfaces.msg import Guidance
 
-from bridge_helpers import bridge_spec, stamp_seconds, step
+from bridge_helpers import FAST_SIM, bridge_spec, stamp_seconds, step
 from collab_tools.core.image_codec import LABELS_PNG_FORMAT, RGB8_JPEG_FORMAT, decode_labels, decode_rgb
 from collab_tools.images import image_array
 from collab_tools.orchestration.node_process import NodeSpec
@@ -229,8 +229,11 @@ def run_case(session, tmp_path, task_file, config_dir, transport):
     # leader's publisher, so round 1 cannot be missed however slow discovery is.
     guidance = []
     subscription = session.observer.node.create_subscription(Guidance, '/sgcm/guidance', guidance.append, 10)
+    # compressed_rate: the compressed stream (each frame rendered and encoded) at 2 frames per simulated
+    # second instead of the camera's 5; a node looks once per round, at the first frame after settling.
     start_case(session, tmp_path, task_file, config_dir, 'case_8', start_paused=True,
-               leader_params={'image_transport': transport}, follower_params={'image_transport': transport})
+               leader_params={'image_transport': transport}, follower_params={'image_transport': transport},
+               compressed_rate=2.0, **FAST_SIM)
     session.wait_for_nodes([f'{LEADER_NS}/leader_planner', f'{FOLLOWER_NS}/follower_executor'], 60.0)
     resume_once_heard(session, subscription)
     deadline = time.monotonic() + 180.0
