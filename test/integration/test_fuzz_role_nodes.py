@@ -15,9 +15,6 @@ still completes (the forged round did not silence the players, the forged arriva
 
 import math
 import time
-from pathlib import Path
-
-import yaml
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid
@@ -31,29 +28,8 @@ from fuzz_helpers import BAD_STAMPS, HUGE, LATCHED, NEGATIVE, assert_rejected_on
     clock_rejections_ok, flood, publish_all, rejections, \
     republish_until_rejected
 from role_engine.core.formation_task import load_formation_task
-from role_helpers import engine_spec, player_process, player_spec, tracker_spec
+from role_helpers import engine_spec, player_process, player_spec, short_formation, tracker_spec
 from test_role_nodes import ROBOTS, assert_formation_completed, watch_ground_truth_and_arrivals
-
-CONFIG = Path(__file__).resolve().parents[2] / 'config'
-#: Start poses 0.4 m outside the diamond's vertices (size 2.2: (+-1.1, 0), (0, +-1.1)), facing in.
-POSES = {'pioneer_1': [-1.5, 0.0, 0.0], 'pioneer_2': [1.5, 0.0, math.pi], 'burger_1': [0.0, -1.5, math.pi / 2],
-         'burger_2': [0.0, 1.5, -math.pi / 2]}
-
-
-def short_formation(directory: Path) -> Path:
-    """formation_demo with the robots near their diamond, only the pillar, and 6 s roles."""
-    scenario = yaml.safe_load((CONFIG / 'scenarios' / 'roles_formation.yaml').read_text())
-    for robot in scenario['mobile_robots']:
-        robot['pose'] = POSES[robot['name']]
-    scenario['obstacles']['boxes'] = [b for b in scenario['obstacles']['boxes'] if b['name'] == 'pillar']
-    (directory / 'scenario.yaml').write_text(yaml.safe_dump(scenario))
-    settings = yaml.safe_load((CONFIG / 'roles' / 'formation_demo.yaml').read_text())
-    settings['scenario'] = str(directory / 'scenario.yaml')
-    settings['trajectory'] = {'total_time': 6.0, 'states': 13}
-    path = directory / 'settings.yaml'
-    path.write_text(yaml.safe_dump(settings))
-    return path
-
 
 def role(robot, round_, stamp=None, session=0, sender=None, **fields):
     """A process role of ``robot`` sent by its player (``sender`` None) in ``session``."""

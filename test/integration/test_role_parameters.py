@@ -25,7 +25,7 @@ from bridge_helpers import bridge_spec
 from parameter_client import check_parameter_contract, descriptors, get_values, set_one
 from role_engine.core.formation_task import load_formation_task
 from role_engine.core.node_settings import ENGINE_TUNING, PLAYER_TUNING
-from role_helpers import ENGINE, engine_spec, player_node, player_process, player_spec, tracker_spec
+from role_helpers import ENGINE, AssignmentLog, engine_spec, player_node, player_process, player_spec, tracker_spec
 
 ENGINE_READ_ONLY = {'settings_file', 'camera', 'exit_when_done', 'team_namespace'}
 PLAYER_READ_ONLY = {'settings_file', 'engine', 'robot', 'team_namespace'}   # no camera: it follows tracked_pose
@@ -70,45 +70,44 @@ def test_role_engine_applies_its_tuning_and_refuses_the_rest(session, settings_f
         result = set_one(session, ENGINE, name, value)
         assert result.successful, (name, result.reason)
     assert get_values(session, ENGINE, changes) == changes
+    assignments = AssignmentLog(session.observer.node)
     session.start(bridge_spec(task.scenario, real_time_factor=1.0, start_paused=False))
-    first = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment', timeout=90,
-                                     latched=True)
+    first = assignments.wait(lambda m: m.sender == ENGINE, 90, "the engine's first assignment")
     assert first.status == 'assigned', first.message
     start = first.initial_roles[0].start_time
     assert start - start_stamp(first) == pytest.approx(5.0, abs=0.5)        # start_delay (default 2)
+
+    # Two more engines, started now and watched alongside it (each has its own sender): the stuck and
+    # off-role thresholds, set while they watch, decide why they exclude robots (the next round,
+    # assigned or aborted, says why).
+    thresholds = {'stuck': {'problem_detection.stuck_time': 3.0, 'problem_detection.stuck_distance': 0.05},
+                  'off_role': {'problem_detection.off_role_distance': 0.02, 'problem_detection.off_role_grace': 0.5}}
+    for kind in thresholds:
+        spec = engine_spec(settings_file, **PATIENT_ENGINE)
+        spec.name = f'role_engine_{kind}'
+        session.start(spec)
+    for kind, values in thresholds.items():
+        sender = f'/role_engine_{kind}'
+        assigned = assignments.wait(lambda m: m.sender == sender and m.round == 1, 90, f"{sender}'s first round")
+        assert assigned.status == 'assigned', assigned.message
+        for parameter, value in values.items():
+            assert set_one(session, sender, parameter, value).successful
+
     # No player runs: every robot falls silent after silence_timeout (default 4 s), and with none
     # left the task is aborted, naming min_robots as set.
-    aborted = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment', timeout=90,
-                                       predicate=lambda m: m.round == first.round + 1)
+    aborted = assignments.wait(lambda m: m.sender == ENGINE and m.round == first.round + 1, 90,
+                               "the engine's second round")
     assert aborted.status == 'aborted'
     assert 'the formation needs min_robots = 2' in aborted.message
     quiet = [float(q) for q in re.findall(r'went silent \(no process role for ([0-9.]+) s\)', aborted.message)]
     assert len(quiet) == 4 and min(quiet) >= 6.0, aborted.message
     assert start_stamp(aborted) - start >= 6.0
 
-    # Two more engines: the stuck and off-role thresholds, set while they watch, decide why they
-    # exclude robots (the next round, assigned or aborted, says why).
-    for kind, thresholds in (('stuck', {'problem_detection.stuck_time': 3.0, 'problem_detection.stuck_distance': 0.05}),
-                             ('off_role', {'problem_detection.off_role_distance': 0.02,
-                                           'problem_detection.off_role_grace': 0.5})):
-        name = f'role_engine_{kind}'
-        spec = engine_spec(settings_file, **PATIENT_ENGINE)
-        spec.name = name
-        session.start(spec)
-        # Latched: its first assignment may come before our subscription matches (older engines' latched
-        # assignments are older).
-        first = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment', timeout=90,
-                                         latched=True, predicate=lambda m, t=start_stamp(aborted):
-                                         m.status == 'assigned' and start_stamp(m) > t)
-        for parameter, value in thresholds.items():
-            assert set_one(session, f'/{name}', parameter, value).successful
-        ended = session.wait_for_message('/roles/assignment', 'role_interfaces/msg/RoleAssignment', timeout=90,
-                                         latched=True, predicate=lambda m, t=start_stamp(first):
-                                         m.round == 2 and start_stamp(m) > t)
+    for kind in thresholds:
+        sender = f'/role_engine_{kind}'
+        ended = assignments.wait(lambda m: m.sender == sender and m.round == 2, 90, f"{sender}'s second round")
         expected = 'is stuck (moved' if kind == 'stuck' else 'is off its role ('
-        assert ended.message.count(expected) >= 1 and 'went silent' not in ended.message, ended.message
-        session.stop(name)
-        aborted = ended
+        assert ended.message.count(expected) >= 1 and 'went silent' not in ended.message, (kind, ended.message)
 
 
 # ------------------------------------------------------------------------------------ role_player

@@ -1,7 +1,7 @@
 """Restarts of the role nodes (issue 16 items 4-5): ``kill -9`` at a fixed point, restart, the formation completes.
 
-The short formation of the fuzz test (robots 0.4 m outside the diamond, 6 s roles) on the bridge with
-the engine, the robot tracker and four players.
+The short formation of role_helpers (robots 0.4 m outside the diamond, 6 s roles starting 1 s after their
+assignment; the fuzz test plays it too) on the bridge with the engine, the robot tracker and four players.
 
 * A role player is killed with SIGKILL once its robot plays its role (its second re-plan on the
   channel). The camera keeps flowing to the others (the test's own best-effort subscriber and the
@@ -38,8 +38,7 @@ from geometry_msgs.msg import PoseStamped
 
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import LATCHED, RELIABLE
-from role_helpers import engine_spec, player_spec, tracker_spec
-from test_fuzz_role_nodes import short_formation
+from role_helpers import QUICK_START, engine_spec, player_spec, short_formation, tracker_spec
 from test_role_nodes import ROBOTS
 
 #: Wall seconds the undisturbed short formation takes, first assignment to last arrival (module docstring).
@@ -123,7 +122,7 @@ def start_team(session, tmp_path, **engine_parameters):
     session.start(NodeSpec('pybullet_bridge', 'pybullet_bridge', name='pybullet_bridge', use_sim_time=False,
                            parameters=[{'scenario': str(tmp_path / 'scenario.yaml'), 'real_time_factor': 0.5,
                                         'ground_truth_rate': 20.0}]))
-    session.start(engine_spec(settings, **engine_parameters))
+    session.start(engine_spec(settings, **QUICK_START, **engine_parameters))
     session.start(tracker_spec())
     for robot in ROBOTS:
         session.start(player_spec(robot, settings, required=True))
@@ -140,6 +139,8 @@ def kill(session, label):
 
 
 def assert_camera_kept_flowing(watch, killed_at, others):
+    """Checked once the test's own waits are done (the frames are recorded all along): waits only for
+    what is left of the WATCH_S after the kill."""
     time.sleep(max(0.0, killed_at + WATCH_S - time.monotonic()))
     until = killed_at + WATCH_S
     gap = watch.largest_gap(watch.frames, killed_at, until)
@@ -158,7 +159,6 @@ def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tm
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
     killed_at = kill(session, 'burger_2/role_player')
-    frame_gap = assert_camera_kept_flowing(watch, killed_at, [r for r in ROBOTS if r != 'burger_2'])
 
     # The fixed point of the restart: the engine has renegotiated without the silent robot.
     without = watch.wait(lambda: next((a for a in watch.assignments if a.session == first.session
@@ -182,6 +182,7 @@ def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tm
     bound = 2 * UNDISTURBED_S + restart
     watch.wait(lambda: watch.complete(final), max(0.0, killed_at + bound - time.monotonic()),
                f'the formation of round {final.round} within {bound:.0f} s of the kill')
+    frame_gap = assert_camera_kept_flowing(watch, killed_at, [r for r in ROBOTS if r != 'burger_2'])
     session.check_alive()
     log = session.nodes['burger_2/role_player'].log_path.read_text()
     assert f'round {final.round}: playing' in log and 'Traceback' not in log
@@ -221,8 +222,7 @@ def test_a_restarted_engine_starts_a_new_session_the_players_follow(session, tmp
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.version >= 2, timeout=60)
     killed_at = kill(session, 'role_engine')
-    session.start(engine_spec(settings))
-    frame_gap = assert_camera_kept_flowing(watch, killed_at, ROBOTS)      # the engine was a camera subscriber
+    session.start(engine_spec(settings, **QUICK_START))
     new = watch.wait(lambda: next((a for a in watch.assignments if a.session != first.session), None), 90,
                      'the restarted engine\'s first assignment')
     with watch.lock:
@@ -232,6 +232,7 @@ def test_a_restarted_engine_starts_a_new_session_the_players_follow(session, tmp
     bound = 2 * UNDISTURBED_S + restart
     watch.wait(lambda: watch.complete(new), max(0.0, killed_at + bound - time.monotonic()),
                f'the formation of the new session within {bound:.0f} s of the kill')
+    frame_gap = assert_camera_kept_flowing(watch, killed_at, ROBOTS)      # the engine was a camera subscriber
     session.check_alive()
     for robot in ROBOTS:
         log = session.nodes[f'{robot}/role_player'].log_path.read_text()
