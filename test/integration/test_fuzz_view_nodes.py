@@ -28,12 +28,9 @@ from sgcm_interfaces.msg import FollowerReport, Guidance
 from visualization_msgs.msg import MarkerArray
 from websockets.exceptions import ConnectionClosed
 
-from collab_tools.orchestration.live import LiveView
-from collab_tools.orchestration.session import Session
 from foxglove_client import FoxgloveClient
 from fuzz_helpers import BAD_STAMPS, LATCHED, assert_rejected_once_per_kind, bad_clock, clock_rejections_ok, \
     flood, publish_all, rejections
-from test_live_view import free_port
 
 MARKERS = 'visualization_msgs/msg/MarkerArray'
 ROBOT, OTHER = 'robot_view', 'robot_other'
@@ -46,15 +43,8 @@ GARBAGE_FLOOD = 200
 
 
 @pytest.fixture
-def port():
-    return free_port()
-
-
-@pytest.fixture
-def session(tmp_path, port):
-    with Session('fuzz_view', run_dir=tmp_path / 'run', log=None, live=LiveView('127.0.0.1', port),
-                 stop_timeout=10.0) as s:
-        yield s
+def session(live_session):
+    return live_session
 
 
 def process_role(robot=ROBOT, round_=1, x=(0.0, 1.0), y=(0.0, 1.0), dt=0.5, start_time=0.0, **fields):

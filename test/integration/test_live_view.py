@@ -14,7 +14,6 @@ from rclpy.serialization import deserialize_message
 from visualization_msgs.msg import MarkerArray
 
 from collab_tools.core.bag_types import build_typestore, message_definition
-from collab_tools.orchestration.live import LiveView
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.orchestration.session import Session
 from foxglove_client import SUBPROTOCOL, FoxgloveClient
@@ -25,22 +24,9 @@ STATUS_TOPIC = f'/{LEADER}/coalition'
 STATUS_TYPE = 'coalition_interfaces/msg/AgentStatus'
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(('127.0.0.1', 0))
-        return probe.getsockname()[1]
-
-
 @pytest.fixture
-def port():
-    return free_port()
-
-
-@pytest.fixture
-def session(tmp_path, port):
-    """A session with the live view, as ``scripts/demo --live`` starts it (orchestration.live)."""
-    with Session('live_view', run_dir=tmp_path / 'run', log=None, live=LiveView('127.0.0.1', port)) as s:
-        yield s
+def session(live_session):
+    return live_session
 
 
 def test_a_foxglove_client_watches_a_coalition_form(session, port, config_dir):

@@ -20,28 +20,18 @@ from rclpy.serialization import deserialize_message
 from role_interfaces.msg import ProcessRole, RoleAssignment, Team, TeamMember
 from visualization_msgs.msg import MarkerArray
 
-from collab_tools.orchestration.live import LiveView
-from collab_tools.orchestration.session import Session
 from foxglove_client import FoxgloveClient
 from fuzz_helpers import LATCHED, publish_all
 from restart_helpers import kill_9
 from test_fuzz_view_nodes import assignment, markers_with, process_role
-from test_live_view import free_port
 
 ROBOT = 'robot_view'
 RESTART_BOUND_S = 30.0
 
 
 @pytest.fixture
-def port():
-    return free_port()
-
-
-@pytest.fixture
-def session(tmp_path, port):
-    with Session('view_restarts', run_dir=tmp_path / 'run', log=None, live=LiveView('127.0.0.1', port),
-                 stop_timeout=10.0) as s:
-        yield s
+def session(live_session):
+    return live_session
 
 
 def spec_of(session, label):
