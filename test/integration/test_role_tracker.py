@@ -166,11 +166,12 @@ def test_a_player_without_fresh_poses_stops_its_robot(session, config_dir):
     session.start(tracker_spec())
     session.start(player_spec('pioneer_1', settings))
     wait_until(lambda: any(abs(v) > 0.05 for v in list(commands)), 90, 'pioneer_1 driving')
-    session.stop('robot_tracker')
     log_path = player_process(session, 'pioneer_1').log_path
+    stopped = 'no tracked pose of pioneer_1 for 1 s: stopped'
+    before = log_path.read_text().count(stopped)            # (a role that started before the first pose)
+    session.stop('robot_tracker')
     # Its pose is older than POSE_TIMEOUT (1 s of ROS time): it says it stopped; every command from then on is 0.
-    wait_until(lambda: 'no tracked pose of pioneer_1 for 1 s: stopped' in log_path.read_text(), 30,
-               'the player to stop its robot')
+    wait_until(lambda: log_path.read_text().count(stopped) > before, 30, 'the player to stop its robot')
     with lock:
         del commands[:]
     wait_until(lambda: len(commands) >= 3, 30, 'commands after the tracker stopped')
