@@ -14,7 +14,6 @@ time plus the restart (from the kill until the restarted node says it is up).
 """
 
 import os
-import signal
 import time
 
 import pytest
@@ -22,6 +21,7 @@ from bridge_interfaces.action import PickAndPlace
 from sgcm_interfaces.msg import FollowerReport, Guidance
 
 from bridge_helpers import bridge_spec
+from restart_helpers import kill_9
 from test_sgcm_nodes import FOLLOWER_NS, LEADER_NS, resume_once_heard, start_case
 
 LEADER = f'{LEADER_NS}/leader_planner'
@@ -51,18 +51,6 @@ SHORT_LEASE_PROFILE = '''<?xml version="1.0" encoding="UTF-8"?>
 @pytest.fixture
 def task_file(config_dir):
     return config_dir / 'sgcm' / 'task.yaml'
-
-
-def kill_9(session, label):
-    """SIGKILL the node ``label`` (its process group); it stays in the session under another label."""
-    process = session.nodes.pop(label)
-    process.stopped_by = 'killed'          # the session's liveness checks leave it be
-    os.killpg(process.popen.pid, signal.SIGKILL)
-    process.popen.wait(10)
-    process.stop()                         # closes its log; kept beside the restarted node's
-    process.log_path.rename(process.log_path.with_suffix('.killed.log'))
-    session.nodes[f'{label}_killed'] = process
-    return process
 
 
 def wait_until(condition, what, session, timeout=120.0):

@@ -3,7 +3,8 @@ bridge is gone (sgcm.core.arm_goal.GoalWatch: a timeout and server loss, on the 
 
 ``send(goal, done)`` calls ``done(success, message)`` exactly once: with the action's result, when
 the arm refuses the goal, or when the goal is given up (the goal is then cancelled, in case the
-server still runs it), or at once when the node's clock goes back (:meth:`abandon`: a restarted
+server still runs it; also when a new instance of the server appears), or at once when the node's
+clock goes back (:meth:`abandon`: a restarted
 simulation, whose new action server may be in the graph before the old one has left it). The
 bounds are the nodes' parameters ``arm_goal_timeout`` and ``arm_server_lost_after``
 (:data:`ARM_SETTINGS`; dynamic: applied to the goal out, too).
@@ -43,6 +44,7 @@ class ArmClient:
     def __init__(self, node: Node, params: NodeParameters, name: str = 'pick_and_place'):
         self.node = node
         self.action = ActionClient(node, PickAndPlace, name)
+        self._status = node.resolve_topic_name(f'{name}/_action/status')
         values = params.declare_schema(ARM_SETTINGS, on_change={
             'arm_goal_timeout': self._set_timeout, 'arm_server_lost_after': self._set_lost_after})
         self.watch = GoalWatch(values['arm_goal_timeout'], values['arm_server_lost_after'])
@@ -60,8 +62,12 @@ class ArmClient:
     def server_is_ready(self) -> bool:
         return self.action.server_is_ready()
 
+    def server_endpoints(self) -> frozenset:
+        """The graph's endpoints (gids) publishing the action's status: one per action server instance."""
+        return frozenset(bytes(info.endpoint_gid) for info in self.node.get_publishers_info_by_topic(self._status))
+
     def send(self, goal: PickAndPlace.Goal, done: Done) -> None:
-        token = self.watch.sent(time.monotonic())
+        token = self.watch.sent(time.monotonic(), self.server_endpoints())
         self._done, self._handle = done, None
         self.action.send_goal_async(goal).add_done_callback(lambda future: self._on_response(token, future))
 
@@ -93,7 +99,9 @@ class ArmClient:
             self._give_up(reason)
 
     def _check(self) -> None:
-        reason = self.watch.check(time.monotonic(), self.action.server_is_ready())
+        if not self.watch.busy:
+            return
+        reason = self.watch.check(time.monotonic(), self.action.server_is_ready(), self.server_endpoints())
         if reason is not None:
             self._give_up(reason)
 

@@ -179,3 +179,22 @@ def test_a_goal_is_given_up_on_timeout_or_server_loss_and_its_late_result_ignore
     assert watch.finished(token) and watch.check(1000.0, False) is None and watch.given_up == 2
     token = watch.sent(now=300.0)                                # the simulation restarted meanwhile
     assert watch.give_up() and not watch.give_up() and not watch.finished(token) and watch.given_up == 3
+
+
+def test_a_goal_is_given_up_when_a_new_action_server_instance_appears():
+    watch = GoalWatch(timeout=60.0, server_lost_after=5.0)
+    watch.sent(now=0.0, servers=frozenset({b'old'}))
+    assert watch.check(1.0, True, frozenset({b'old'})) is None
+    # The bridge was killed and restarted at once: the old endpoint is still listed (DDS lease), the new
+    # one is there too; its server never heard of the goal.
+    reason = watch.check(2.0, True, frozenset({b'old', b'new'}))
+    assert 'new instance' in reason and not watch.busy and watch.given_up == 1
+    # The old one gone and a new one there by the next check: the same.
+    watch.sent(now=10.0, servers=frozenset({b'old'}))
+    assert 'new instance' in watch.check(11.0, True, frozenset({b'new'}))
+    # Only the old one gone: server loss after server_lost_after, as before.
+    watch.sent(now=20.0, servers=frozenset({b'old'}))
+    assert watch.check(21.0, False, frozenset()) is None and 'left the graph' in watch.check(26.0, False, frozenset())
+    # Endpoints not known when sent (the graph lagged): no instance check, the other bounds hold.
+    watch.sent(now=30.0)
+    assert watch.check(31.0, True, frozenset({b'new'})) is None

@@ -6,7 +6,11 @@ follower stayed busy. :class:`GoalWatch` gives a goal up when
 
 * its result has not come ``timeout`` s after it was sent, or
 * the action server has been missing from the graph for ``server_lost_after`` s meanwhile (a
-  killed bridge leaves the graph once DDS notices its participant is gone);
+  killed bridge leaves the graph once DDS notices its participant is gone), or
+* a new instance of the action server appeared in the graph meanwhile (an endpoint that was not
+  there when the goal was sent: a restarted bridge, which can never finish a goal of the old one;
+  the old one may stay listed until its DDS lease ends, 20 s by default, and a restarted simulation
+  running as fast as possible may be past the old time before the node hears its clock go back);
 
 both on the steady clock: a crashed bridge stops ``/clock``, so simulated time would never reach
 either bound. A given-up move counts as not done; the node's rounds go on (the leader announces
@@ -28,6 +32,7 @@ SERVER_LOST_AFTER = 5.0
 class _Goal:
     token: int
     sent_at: float
+    servers: frozenset = frozenset()    # the action server's endpoints in the graph when it was sent
     missing_since: float | None = None
 
 
@@ -45,10 +50,11 @@ class GoalWatch:
     def busy(self) -> bool:
         return self._goal is not None
 
-    def sent(self, now: float) -> int:
-        """A goal was sent at ``now``; its token (any goal still out is forgotten)."""
+    def sent(self, now: float, servers: frozenset = frozenset()) -> int:
+        """A goal was sent at ``now`` with the action server's endpoints ``servers`` (ids) in the graph; its
+        token (any goal still out is forgotten)."""
         self._tokens += 1
-        self._goal = _Goal(self._tokens, now)
+        self._goal = _Goal(self._tokens, now, frozenset(servers))
         return self._tokens
 
     def finished(self, token: int) -> bool:
@@ -66,8 +72,9 @@ class GoalWatch:
         self.given_up += 1
         return True
 
-    def check(self, now: float, server_ready: bool) -> str | None:
-        """Why the goal out is given up now (it is then forgotten), or None."""
+    def check(self, now: float, server_ready: bool, servers: frozenset | None = None) -> str | None:
+        """Why the goal out is given up now (it is then forgotten), or None. ``servers``: the action
+        server's endpoints in the graph now (None: not known)."""
         goal = self._goal
         if goal is None:
             return None
@@ -76,7 +83,9 @@ class GoalWatch:
         elif goal.missing_since is None:
             goal.missing_since = now
         reason = None
-        if goal.missing_since is not None and now - goal.missing_since >= self.server_lost_after:
+        if goal.servers and servers is not None and servers - goal.servers:
+            reason = "a new instance of the arm's action server appeared (a restarted bridge cannot finish the goal)"
+        elif goal.missing_since is not None and now - goal.missing_since >= self.server_lost_after:
             reason = f'the arm\'s action server left the graph ({now - goal.missing_since:.0f} s without it)'
         elif now - goal.sent_at >= self.timeout:
             reason = f'no result within {self.timeout:g} s'
