@@ -27,7 +27,6 @@ machine's noise).
 """
 
 import os
-import signal
 import threading
 import time
 
@@ -38,6 +37,7 @@ from geometry_msgs.msg import PoseStamped
 
 from collab_tools.orchestration.node_process import NodeSpec
 from collab_tools.qos import LATCHED, RELIABLE
+from restart_helpers import kill_9
 from role_helpers import QUICK_START, engine_spec, player_spec, short_formation, tracker_spec
 from test_role_nodes import ROBOTS
 
@@ -129,15 +129,6 @@ def start_team(session, tmp_path, **engine_parameters):
     return settings
 
 
-def kill(session, label):
-    """SIGKILL the node's process group; its log is kept as <label>.killed.log, its label freed for a restart."""
-    process = session.nodes.pop(label)
-    os.killpg(process.popen.pid, signal.SIGKILL)
-    process.popen.wait(10.0)
-    process.log_path.rename(process.log_path.with_suffix('.killed.log'))
-    return time.monotonic()
-
-
 def assert_camera_kept_flowing(watch, killed_at, others):
     """Checked once the test's own waits are done (the frames are recorded all along): waits only for
     what is left of the WATCH_S after the kill."""
@@ -158,7 +149,8 @@ def test_a_killed_role_player_comes_back_and_the_formation_completes(session, tm
     assert sorted(first.robots) == sorted(ROBOTS)
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
-    killed_at = kill(session, 'burger_2/role_player')
+    killed_at = time.monotonic()
+    kill_9(session, 'burger_2/role_player')
 
     # The fixed point of the restart: the engine has renegotiated without the silent robot.
     without = watch.wait(lambda: next((a for a in watch.assignments if a.session == first.session
@@ -197,7 +189,8 @@ def test_a_player_restarted_in_time_takes_its_role_from_the_latched_assignment(s
     first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.robot == 'burger_2' and m.version >= 2, timeout=60)
-    killed_at = kill(session, 'burger_2/role_player')
+    killed_at = time.monotonic()
+    kill_9(session, 'burger_2/role_player')
     session.start(player_spec('burger_2', settings, required=True))
     heard = session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole', timeout=60,
                                      predicate=lambda m: m.robot == 'burger_2' and m.sender == '/burger_2/role_player'
@@ -221,7 +214,8 @@ def test_a_restarted_engine_starts_a_new_session_the_players_follow(session, tmp
     first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.version >= 2, timeout=60)
-    killed_at = kill(session, 'role_engine')
+    killed_at = time.monotonic()
+    kill_9(session, 'role_engine')
     session.start(engine_spec(settings, **QUICK_START))
     new = watch.wait(lambda: next((a for a in watch.assignments if a.session != first.session), None), 90,
                      'the restarted engine\'s first assignment')
@@ -251,7 +245,8 @@ def test_a_restarted_robot_tracker_feeds_the_players_again(session, tmp_path):
     first = watch.first_assignment()
     session.wait_for_message('/roles/channel', 'role_interfaces/msg/ProcessRole',
                              predicate=lambda m: m.version >= 2, timeout=60)
-    killed_at = kill(session, 'robot_tracker')
+    killed_at = time.monotonic()
+    kill_9(session, 'robot_tracker')
     session.start(tracker_spec())
     back_at = watch.wait(lambda: min((t for t in watch.poses['pioneer_1'] if t > killed_at + 0.5), default=None),
                          60, 'tracked poses from the restarted tracker')
