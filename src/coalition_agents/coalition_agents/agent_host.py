@@ -61,7 +61,7 @@ from collab_tools import qos
 from collab_tools.names import TeamNode, check_robot_name, join
 from collab_tools.core.input_files import yaml_file_problem
 from collab_tools.core.settings import Setting, SettingsSchema
-from collab_tools.node_support import ConfigurationError, stop_signal_handling
+from collab_tools.node_support import ConfigurationError, stop_signal_handling, stop_under_way
 from collab_tools.parameters import NodeParameters
 
 from .transport.agent_channel import CHANNEL_TOPIC, batch_topic, bundle_topic
@@ -262,7 +262,7 @@ def main(args=None) -> int:
         _tear_down(host)
         return 2
     except (KeyboardInterrupt, ExternalShutdownException, RuntimeError) as error:
-        if isinstance(error, RuntimeError) and rclpy.ok():
+        if isinstance(error, RuntimeError) and not stop_under_way():
             raise
         _tear_down(host)  # stopped while starting (e.g. waiting for the recorder): a normal stop
         return 0
@@ -287,8 +287,8 @@ def main(args=None) -> int:
                 executor.spin_once(timeout_sec=0.05)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except RuntimeError:  # SIGINT mid-publish (see collab_tools.node_support.run)
-        if rclpy.ok():
+    except RuntimeError:  # SIGINT mid-publish or mid-take (see collab_tools.node_support.run)
+        if not stop_under_way():
             raise
     finally:
         _tear_down(host, executor)

@@ -23,7 +23,7 @@ from rclpy.task import Future
 
 from .core.errors import ConfigurationError  # re-exported: nodes raise it
 
-__all__ = ['ConfigurationError', 'EXIT_TASK_FAILED', 'run', 'stop_signal_handling']
+__all__ = ['ConfigurationError', 'EXIT_TASK_FAILED', 'run', 'stop_signal_handling', 'stop_under_way']
 
 #: Exit code of a node that ended without doing its task (an orchestration session: a failed node).
 EXIT_TASK_FAILED = 1
@@ -39,6 +39,21 @@ def stop_signal_handling() -> None:
     ``uninstall_signal_handlers`` joins the thread. A second SIGINT must not break the clean-up."""
     rclpy.uninstall_signal_handlers()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+#: s a stop's context shut-down may lag the error it caused (rclpy's signal thread; a busy machine).
+STOP_GRACE_S = 2.0
+
+
+def stop_under_way(seconds: float = STOP_GRACE_S) -> bool:
+    """True once rclpy's context is shut down (a stop under way), waiting up to ``seconds``: whether a
+    RuntimeError just caught is part of a stop (see :func:`run`) or an error."""
+    deadline = time.monotonic() + seconds
+    while rclpy.ok():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
 
 
 def _request_stop_on_signals() -> list[int]:
@@ -107,10 +122,12 @@ def run(node_class, name: str, args=None, config_errors: tuple[type[Exception], 
         # come with the team description): the same exit 2 as at start.
         rclpy.logging.get_logger(name).fatal(f'cannot start: {error}')
         code = 2
-    except RuntimeError:  # rclpy's RCLError ("publisher's context is invalid")
-        # SIGINT shuts the context down asynchronously; a timer that is publishing at that
-        # moment fails. Only a live context makes it an error.
-        if rclpy.ok():
+    except RuntimeError:
+        # SIGINT shuts the context down from rclpy's signal thread, a moment later: a timer publishing
+        # then fails (RCLError "publisher's context is invalid"), and the KeyboardInterrupt the signal
+        # also raises can land inside a message's conversion in take_message, which pybind11 reports as
+        # RuntimeError ("Unable to convert call argument"). Only an error with no stop under way is one.
+        if not stop_under_way():
             raise
     finally:
         stop_signal_handling()
