@@ -306,9 +306,12 @@ class AgentChannel:
         agents' status publishers (a host its hub, then the agents; a standalone agent its channel,
         then its status), and a participant announces its endpoints in that order, so a teammate
         whose status is visible already listens on the batch topic. (A bag recorder subscribes to
-        the batch topic too, so a subscription alone proves nothing.)"""
-        return sum(bool(self.node.get_publishers_info_by_topic(presence_topic(teammate)))
-                   for teammate in self.team if teammate != self.robot)
+        the batch topic too, so a subscription alone proves nothing.) Each subscription the graph lists
+        on the bundle topic that this process's publisher has not matched yet counts one teammate less (it
+        may be theirs): a search started then lost its first requests (no coalition in 3 s, in CI)."""
+        visible = sum(bool(self.node.get_publishers_info_by_topic(presence_topic(teammate)))
+                      for teammate in self.team if teammate != self.robot)
+        return max(0, visible - self.hub.unmatched_subscriptions())
 
     # --- receiving (called by the hub) ---------------------------------------------------------------
     def accept_batch(self, msg: AgentMessageBatch) -> None:

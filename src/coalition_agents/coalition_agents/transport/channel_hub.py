@@ -162,6 +162,13 @@ class ChannelHub:
         self.batches_local = 0         # batches between this process's own agents (not taken back)
         self.flush_trigger = node.create_guard_condition(self._on_flush)
 
+    def unmatched_subscriptions(self) -> int:
+        """Subscriptions the graph lists on the bundle topic that this hub's publisher has not matched yet.
+        The graph learns a process's endpoints from its ros_discovery_info, which can run seconds ahead of
+        DDS matching them on a loaded machine; a bundle published to an unmatched reader is lost."""
+        listed = len(self.node.get_subscriptions_info_by_topic(self.bundle_topic))
+        return max(0, listed - self.publisher.get_subscription_count())
+
     # --- channels ----------------------------------------------------------------------------------
     def attach(self, channel: 'AgentChannel') -> None:
         self.channels[channel.robot] = channel
